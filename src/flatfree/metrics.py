@@ -1,0 +1,118 @@
+"""Tracking metrics of a closed-loop run: one function, used by every comparison.
+
+Definitions (the same for every controller, so that comparisons are fair):
+
+- **lateral error** [m]: the true (not measured) signed distance of the CoG from the reference
+  path, left positive (signal ``lateral_error``).
+- **yaw error** [rad, reported in deg]: the vehicle's yaw minus the reference yaw, wrapped to
+  (-pi, pi] (signal ``yaw_error``). The reference yaw is the recorded yaw for a recorded
+  reference, and the path heading plus the reference sideslip angle of the 3DoF model along the
+  path for a track reference: comparing with the bare path heading would count the car's own
+  sideslip as error.
+- **speed error** [m/s]: ``vx - vx_ref``.
+- **steering rate** [rad/s]: the time derivative of the applied steer angle ``steer``
+  (finite differences on the logged grid).
+- **torque effort** [N m]: the RMS of the applied wheel torque ``torque``.
+
+All errors are taken over the whole run after a start-up interval ``startup_s`` (the same for
+every controller); the default is :data:`DEFAULT_STARTUP_S`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from flatfree._validate import nonnegative
+from flatfree.trajectory import Trajectory
+
+__all__ = ["DEFAULT_STARTUP_S", "Metrics", "compute_metrics", "wrap_angle"]
+
+#: Start-up interval excluded from every error metric [s] (controllers' windows fill, and the
+#: initial state settles on the reference).
+DEFAULT_STARTUP_S = 1.0
+
+
+def wrap_angle(angle):
+    """Wrap an angle [rad] (scalar or array) to (-pi, pi]."""
+    a = np.asarray(angle, dtype=np.float64)
+    w = -((-a + np.pi) % (2.0 * np.pi) - np.pi)
+    return float(w) if np.ndim(angle) == 0 else w
+
+
+@dataclass(frozen=True, slots=True)
+class Metrics:
+    """Metrics of one run; field names carry their units (JSON keys of the CLI)."""
+
+    status: str
+    duration_s: float
+    lateral_error_max_m: float
+    lateral_error_rms_m: float
+    yaw_error_max_deg: float
+    yaw_error_rms_deg: float
+    speed_error_rms_mps: float
+    steer_rate_rms_radps: float
+    steer_rate_max_radps: float
+    torque_rms_nm: float
+    real_time_factor: float
+
+    def to_dict(self) -> dict[str, float | str]:
+        """Plain dict (JSON-ready; non-finite numbers become None)."""
+        out: dict[str, float | str] = {}
+        for k, v in asdict(self).items():
+            out[k] = None if isinstance(v, float) and not math.isfinite(v) else v
+        return out
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x)))) if x.size else math.nan
+
+
+def _max_abs(x: np.ndarray) -> float:
+    return float(np.max(np.abs(x))) if x.size else math.nan
+
+
+def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -> Metrics:
+    """Tracking metrics of a trajectory (definitions in the module docstring).
+
+    Parameters
+    ----------
+    traj
+        Needs the signals ``lateral_error`` [m], ``yaw_error`` [rad], ``vx`` and ``vx_ref``
+        [m/s], ``steer`` [rad] and ``torque`` [N m]. ``meta["real_time_factor"]`` is reported
+        when present (NaN otherwise).
+    startup_s
+        Start-up interval excluded from the errors [s], counted from the first sample.
+
+    Returns
+    -------
+    Metrics
+        NaN where no sample lies after the start-up interval.
+    """
+    startup_s = nonnegative("startup_s", startup_s, "s")
+    for name in ("lateral_error", "yaw_error", "vx", "vx_ref", "steer", "torque"):
+        if name not in traj:
+            raise ValueError(f"trajectory has no signal {name!r} needed by compute_metrics")
+    t0 = traj.time[0] if len(traj) else 0.0
+    part = traj.after(t0 + startup_s)
+    ey = part["lateral_error"]
+    epsi = np.degrees(wrap_angle(part["yaw_error"]))
+    ev = part["vx"] - part["vx_ref"]
+    steer = traj["steer"][traj.time >= t0 + startup_s]
+    t = part.time
+    steer_rate = np.diff(steer) / np.diff(t) if t.size > 1 else np.empty(0)
+    return Metrics(
+        status=traj.status.value,
+        duration_s=traj.duration,
+        lateral_error_max_m=_max_abs(ey),
+        lateral_error_rms_m=_rms(ey),
+        yaw_error_max_deg=_max_abs(epsi),
+        yaw_error_rms_deg=_rms(epsi),
+        speed_error_rms_mps=_rms(ev),
+        steer_rate_rms_radps=_rms(steer_rate),
+        steer_rate_max_radps=_max_abs(steer_rate),
+        torque_rms_nm=_rms(part["torque"]),
+        real_time_factor=float(traj.meta.get("real_time_factor", math.nan)),
+    )

@@ -1,0 +1,206 @@
+"""The result of a simulation: named signals on a time grid, a status, and export.
+
+A :class:`Trajectory` holds every logged signal (true states, measurements, references, commands,
+applied inputs, Frenet errors, controller internals such as the estimated F) under a name, with its
+unit. Signals are read by name, ``traj["lateral_error"]``, never by magic index. A status says how
+the run ended; a run that left the track or went non-finite does not raise: it ends early, and
+``status`` and ``status_time`` say so.
+"""
+
+from __future__ import annotations
+
+import csv
+import enum
+import math
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Status", "Trajectory"]
+
+
+class Status(enum.Enum):
+    """How a closed-loop run ended."""
+
+    COMPLETED = "completed"
+    LEFT_TRACK = "left_track"  # |e_y| beyond the track half-width
+    NON_FINITE = "non_finite"  # a state became NaN or infinite
+
+    def __str__(self) -> str:
+        return self.value
+
+
+@dataclass(frozen=True, slots=True)
+class Trajectory:
+    """Named signals logged on a common time grid.
+
+    Parameters
+    ----------
+    time
+        Sample times [s], strictly increasing, shape (n,).
+    signals
+        Signal name -> array of shape (n,). Copied and made read-only.
+    units
+        Signal name -> unit string (SI; ``"-"`` for dimensionless). Every signal needs one.
+    status
+        How the run ended.
+    status_time
+        Time [s] at which a run that did not complete stopped; ``None`` when completed.
+    meta
+        Free-form description of the run (scenario, controller, seed, real-time factor, ...).
+    """
+
+    time: np.ndarray
+    signals: Mapping[str, np.ndarray]
+    units: Mapping[str, str]
+    status: Status = Status.COMPLETED
+    status_time: float | None = None
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        t = np.array(self.time, dtype=np.float64, copy=True)
+        if t.ndim != 1:
+            raise ValueError(f"time has shape {t.shape}: expected a 1-D array")
+        if t.size > 1 and not np.all(np.diff(t) > 0.0):
+            raise ValueError("time must be strictly increasing")
+        t.flags.writeable = False
+        sig: dict[str, np.ndarray] = {}
+        for name, values in self.signals.items():
+            a = np.array(values, dtype=np.float64, copy=True)
+            if a.shape != t.shape:
+                raise ValueError(
+                    f"signal {name!r} has shape {a.shape}, expected {t.shape} like time"
+                )
+            if name not in self.units:
+                raise ValueError(f"signal {name!r} has no unit in units")
+            a.flags.writeable = False
+            sig[name] = a
+        if not isinstance(self.status, Status):
+            raise ValueError(f"status = {self.status!r}: expected a Status")
+        if self.status is Status.COMPLETED and self.status_time is not None:
+            raise ValueError("status_time must be None for a completed run")
+        if self.status is not Status.COMPLETED and self.status_time is None:
+            raise ValueError(f"status {self.status} needs the status_time at which it happened")
+        object.__setattr__(self, "time", t)
+        object.__setattr__(self, "signals", MappingProxyType(sig))
+        object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
+        object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+
+    # ----- access -----
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "time":
+            return self.time
+        try:
+            return self.signals[name]
+        except KeyError:
+            raise KeyError(
+                f"no signal {name!r}; available: {', '.join(sorted(self.signals))}"
+            ) from None
+
+    def __contains__(self, name: object) -> bool:
+        return name == "time" or name in self.signals
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.signals)
+
+    def __len__(self) -> int:
+        return int(self.time.size)
+
+    @property
+    def names(self) -> list[str]:
+        """Signal names, in logging order."""
+        return list(self.signals)
+
+    @property
+    def completed(self) -> bool:
+        """True when the run reached its end."""
+        return self.status is Status.COMPLETED
+
+    @property
+    def duration(self) -> float:
+        """Logged duration [s]."""
+        return float(self.time[-1] - self.time[0]) if self.time.size else 0.0
+
+    def after(self, t_start: float) -> Trajectory:
+        """The part of the trajectory with time >= t_start (status and meta kept)."""
+        keep = self.time >= t_start
+        return Trajectory(
+            time=self.time[keep],
+            signals={k: v[keep] for k, v in self.signals.items()},
+            units=self.units,
+            status=self.status,
+            status_time=self.status_time,
+            meta=self.meta,
+        )
+
+    # ----- export -----
+    def to_columns(self) -> dict[str, np.ndarray]:
+        """``{"time": ..., name: ...}``, in logging order."""
+        return {"time": self.time, **self.signals}
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write a CSV file: a header of ``name [unit]`` and one row per sample."""
+        path = Path(path)
+        cols = self.to_columns()
+        header = ["time [s]"] + [f"{k} [{self.units[k]}]" for k in self.signals]
+        data = np.column_stack(list(cols.values())) if cols else np.empty((0, 0))
+        with path.open("w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow([f"# status={self.status.value}"
+                        + (f" status_time={self.status_time!r}" if self.status_time is not None
+                           else "")])
+            w.writerow(header)
+            for row in data:
+                w.writerow([repr(float(x)) for x in row])
+        return path
+
+    def to_parquet(self, path: str | Path) -> Path:
+        """Write a Parquet file (pyarrow); units, status and meta go into the schema metadata."""
+        import json
+
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        path = Path(path)
+        table = pa.table({k: pa.array(v) for k, v in self.to_columns().items()})
+        meta = {
+            b"flatfree.units": json.dumps({"time": "s", **dict(self.units)}).encode(),
+            b"flatfree.status": self.status.value.encode(),
+            b"flatfree.status_time": json.dumps(self.status_time).encode(),
+            b"flatfree.meta": json.dumps(dict(self.meta), default=str).encode(),
+        }
+        table = table.replace_schema_metadata({**(table.schema.metadata or {}), **meta})
+        pq.write_table(table, path)
+        return path
+
+    @classmethod
+    def from_parquet(cls, path: str | Path) -> Trajectory:
+        """Read a file written by :meth:`to_parquet`."""
+        import json
+
+        import pyarrow.parquet as pq
+
+        table = pq.read_table(path)
+        md = table.schema.metadata or {}
+        try:
+            units = json.loads(md[b"flatfree.units"])
+            status = Status(md[b"flatfree.status"].decode())
+            status_time = json.loads(md[b"flatfree.status_time"])
+            meta = json.loads(md[b"flatfree.meta"])
+        except KeyError as exc:
+            raise ValueError(f"{path}: not a flatfree trajectory (missing {exc})") from None
+        cols = {name: table.column(name).to_numpy() for name in table.column_names}
+        time = cols.pop("time")
+        units.pop("time", None)
+        return cls(time=time, signals=cols, units=units, status=status,
+                   status_time=status_time, meta=meta)
+
+    def __repr__(self) -> str:
+        st = "" if self.status_time is None else f" at t={self.status_time:.3f} s"
+        dur = self.duration if math.isfinite(self.duration) else float("nan")
+        return (f"Trajectory({len(self)} samples, {dur:.3f} s, status={self.status.value}{st}, "
+                f"signals=[{', '.join(self.names)}])")
