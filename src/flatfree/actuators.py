@@ -1,0 +1,134 @@
+"""Actuators of the sampled-data loop: steering and wheel torque, with limits, lag and dead time.
+
+The controller commands a wheel torque T_w [N m] (positive drive, negative brake) and a road-wheel
+steer angle delta [rad]. Between command and plant, :func:`actuate_step` applies, in order:
+
+1. **dead time**: the command of ``delay_steps`` plant steps earlier (rounded to the plant step);
+2. **first-order lag** with time constant ``tau`` [s], discretised exactly for a command held over
+   the step: ``y += (1 - exp(-dt / tau)) (u - y)`` (``tau = 0``: no lag);
+3. **rate limit** (steering) [rad/s];
+4. **range limit**: steer to [-max_steer, max_steer]; torque to
+   [-max_brake_torque, min(max_drive_torque, max_power R_e / max(vx, v_power_min))].
+
+Limits come from the vehicle (:meth:`ActuatorParams.from_vehicle`) and may be overridden. Input
+limits live here, never inside the vehicle's vector field.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from flatfree._validate import nonnegative, positive
+from flatfree.vehicles.params import VehicleParams
+
+__all__ = ["ActuatorParams", "actuate_step", "actuator_state"]
+
+#: Speed below which the power cap of the drive torque is not applied [m/s] (avoids P R / 0).
+V_POWER_MIN = 1.0
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ActuatorParams:
+    """Steering and torque actuator settings (SI)."""
+
+    max_steer: float  # [rad]
+    max_steer_rate: float  # [rad/s]
+    steer_tau: float = 0.0  # first-order lag [s]
+    steer_delay: float = 0.0  # dead time [s]
+    max_drive_torque: float  # [N m]
+    max_power: float  # [W]
+    max_brake_torque: float  # [N m]
+    wheel_radius: float  # R_e [m], for the power cap
+    torque_tau: float = 0.0  # [s]
+    torque_delay: float = 0.0  # [s]
+
+    def __post_init__(self) -> None:
+        positive("max_steer", self.max_steer, "rad")
+        positive("max_steer_rate", self.max_steer_rate, "rad/s")
+        nonnegative("steer_tau", self.steer_tau, "s")
+        nonnegative("steer_delay", self.steer_delay, "s")
+        positive("max_drive_torque", self.max_drive_torque, "N m")
+        positive("max_power", self.max_power, "W")
+        positive("max_brake_torque", self.max_brake_torque, "N m")
+        positive("wheel_radius", self.wheel_radius, "m")
+        nonnegative("torque_tau", self.torque_tau, "s")
+        nonnegative("torque_delay", self.torque_delay, "s")
+
+    @classmethod
+    def from_vehicle(cls, vehicle: VehicleParams, **overrides) -> ActuatorParams:
+        """Limits of a vehicle preset; lags and delays default to 0 unless given."""
+        base = dict(
+            max_steer=vehicle.max_steer,
+            max_steer_rate=vehicle.max_steer_rate,
+            max_drive_torque=vehicle.max_drive_torque,
+            max_power=vehicle.max_power,
+            max_brake_torque=vehicle.max_brake_torque,
+            wheel_radius=vehicle.wheel_radius,
+        )
+        base.update(overrides)
+        return cls(**base)
+
+    def to_array(self, dt: float) -> np.ndarray:
+        """Parameters for :func:`actuate_step` at plant step ``dt`` [s]."""
+        dt = positive("dt", dt, "s")
+        a_s = 1.0 if self.steer_tau == 0.0 else 1.0 - math.exp(-dt / self.steer_tau)
+        a_t = 1.0 if self.torque_tau == 0.0 else 1.0 - math.exp(-dt / self.torque_tau)
+        return np.array([
+            self.max_steer, self.max_steer_rate * dt, a_s, round(self.steer_delay / dt),
+            self.max_drive_torque, self.max_power * self.wheel_radius, self.max_brake_torque,
+            a_t, round(self.torque_delay / dt),
+        ])
+
+
+def actuator_state(params: ActuatorParams, dt: float, steer0: float = 0.0,
+                   torque0: float = 0.0) -> np.ndarray:
+    """Initial state for :func:`actuate_step`: outputs and the dead-time ring buffers."""
+    n_s = round(params.steer_delay / dt) + 1
+    n_t = round(params.torque_delay / dt) + 1
+    depth = max(n_s, n_t)
+    # layout: [steer_out, torque_out, write_index, steer_buf(depth), torque_buf(depth)]
+    st = np.empty(3 + 2 * depth)
+    st[0] = steer0
+    st[1] = torque0
+    st[2] = 0.0
+    st[3:3 + depth] = steer0
+    st[3 + depth:] = torque0
+    return st
+
+
+@njit(cache=True)
+def actuate_step(torque_cmd, steer_cmd, vx, p, st):
+    """Advance the actuators by one plant step; returns (torque_applied, steer_applied).
+
+    ``p`` from :meth:`ActuatorParams.to_array`, ``st`` from :func:`actuator_state` (mutated).
+    A non-finite command is ignored (the previous command is repeated).
+    """
+    depth = (st.shape[0] - 3) // 2
+    w = int(st[2])
+    if not math.isfinite(steer_cmd):
+        steer_cmd = st[3 + (w - 1) % depth]
+    if not math.isfinite(torque_cmd):
+        torque_cmd = st[3 + depth + (w - 1) % depth]
+    st[3 + w] = steer_cmd
+    st[3 + depth + w] = torque_cmd
+    d_s = int(p[3])
+    d_t = int(p[8])
+    steer_in = st[3 + (w - d_s) % depth]
+    torque_in = st[3 + depth + (w - d_t) % depth]
+    st[2] = (w + 1) % depth
+    # steering: lag, rate limit, range
+    target = st[0] + p[2] * (steer_in - st[0])
+    dmax = p[1]
+    step = min(max(target - st[0], -dmax), dmax)
+    s = min(max(st[0] + step, -p[0]), p[0])
+    st[0] = s
+    # torque: lag, range with the power cap
+    tq = st[1] + p[7] * (torque_in - st[1])
+    drive_cap = min(p[4], p[5] / max(abs(vx), V_POWER_MIN))
+    tq = min(max(tq, -p[6]), drive_cap)
+    st[1] = tq
+    return tq, s

@@ -1,0 +1,157 @@
+"""Sensors of the sampled-data loop: per-channel noise, bias, sample rate and delay, seeded.
+
+A :class:`SensorChannel` describes one measured signal; a :class:`SensorSuite` maps channel
+names to channels. The simulation evaluates them at the controller's rate through the compiled
+:func:`sense_step`, over arrays built by :meth:`SensorSuite.compile`:
+
+- **delay**: rounded to a whole number of controller periods (``delay_steps``); the channel
+  returns the true value of ``delay_steps`` periods earlier (the first value before enough
+  history exists).
+- **sample rate**: a channel slower than the controller holds its last sample between updates
+  (``period_steps`` controller periods apart, rounded, at least 1); a rate of ``None`` means
+  every controller step.
+- **noise**: additive Gaussian, standard deviation ``noise_std``, drawn in advance for the whole
+  run from ``numpy.random.default_rng(seed)``: the same seed gives bit-identical runs, different
+  seeds different noise. Noise is drawn once per sample (held between samples).
+- **bias**: a constant offset added to every sample.
+
+Units of ``noise_std`` and ``bias`` are those of the channel's signal (SI).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+from numba import njit
+
+from flatfree._validate import finite, nonnegative, positive
+
+__all__ = ["SensorChannel", "SensorSuite", "CompiledSensors", "sense_step"]
+
+# columns of the compiled parameter table
+_NOISE, _BIAS, _PERIOD, _DELAY = 0, 1, 2, 3
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SensorChannel:
+    """One measured signal.
+
+    Parameters
+    ----------
+    noise_std
+        Standard deviation of the additive Gaussian noise, in the signal's unit (>= 0).
+    bias
+        Constant offset, in the signal's unit.
+    rate_hz
+        Sample rate [Hz]; ``None`` samples at every controller step.
+    delay_s
+        Transport delay [s] (>= 0), rounded to whole controller periods.
+    """
+
+    noise_std: float = 0.0
+    bias: float = 0.0
+    rate_hz: float | None = None
+    delay_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        nonnegative("noise_std", self.noise_std)
+        finite("bias", self.bias)
+        if self.rate_hz is not None:
+            positive("rate_hz", self.rate_hz, "Hz")
+        nonnegative("delay_s", self.delay_s, "s")
+
+
+@dataclass(frozen=True, slots=True)
+class CompiledSensors:
+    """Arrays for :func:`sense_step`: parameters, pre-drawn noise and the state to mutate."""
+
+    names: tuple[str, ...]
+    table: np.ndarray  # (n_channels, 4): noise_std, bias, period_steps, delay_steps
+    noise: np.ndarray  # (n_steps, n_channels) standard normal draws, scaled in sense_step
+    history: np.ndarray  # (n_channels, max_delay + 1) ring buffer of true values
+    held: np.ndarray  # (n_channels,) last measured value
+
+    def reset(self) -> None:
+        """Clear the state (history and held values) for a new run."""
+        self.history[:] = np.nan
+        self.held[:] = np.nan
+
+
+@dataclass(frozen=True, slots=True)
+class SensorSuite:
+    """Named sensor channels.
+
+    ``SensorSuite({"vx": SensorChannel(noise_std=0.05), "r": SensorChannel(noise_std=0.002)})``
+    """
+
+    channels: Mapping[str, SensorChannel] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name, ch in self.channels.items():
+            if not isinstance(ch, SensorChannel):
+                raise ValueError(f"sensor {name!r}: expected a SensorChannel, got {ch!r}")
+        object.__setattr__(self, "channels", MappingProxyType(dict(self.channels)))
+
+    def noise_free(self) -> SensorSuite:
+        """The same channels with zero noise and zero bias (rates and delays kept)."""
+        return SensorSuite({
+            k: SensorChannel(rate_hz=c.rate_hz, delay_s=c.delay_s)
+            for k, c in self.channels.items()
+        })
+
+    def compile(self, names: tuple[str, ...], dt_control: float, n_steps: int,
+                seed: int) -> CompiledSensors:
+        """Arrays for the compiled loop, channels in the order of ``names``.
+
+        A name without a channel is measured perfectly (no noise, bias, delay; every step).
+        """
+        dt_control = positive("dt_control", dt_control, "s")
+        unknown = set(self.channels) - set(names)
+        if unknown:
+            raise ValueError(
+                f"sensor channel(s) {sorted(unknown)} are not measured signals; "
+                f"valid: {', '.join(names)}"
+            )
+        n = len(names)
+        table = np.zeros((n, 4))
+        for i, name in enumerate(names):
+            ch = self.channels.get(name, SensorChannel())
+            table[i, _NOISE] = ch.noise_std
+            table[i, _BIAS] = ch.bias
+            table[i, _PERIOD] = (
+                1 if ch.rate_hz is None else max(1, round(1.0 / (ch.rate_hz * dt_control)))
+            )
+            table[i, _DELAY] = round(ch.delay_s / dt_control)
+        rng = np.random.default_rng(seed)
+        noise = rng.standard_normal((int(n_steps), n))
+        max_delay = int(table[:, _DELAY].max()) if n else 0
+        history = np.full((n, max_delay + 1), np.nan)
+        held = np.full(n, np.nan)
+        return CompiledSensors(tuple(names), table, noise, history, held)
+
+
+@njit(cache=True)
+def sense_step(k, truth, table, noise, history, held, out):
+    """Measure the true values ``truth`` at controller step ``k`` into ``out``.
+
+    Mutates ``history`` (ring buffer of true values) and ``held`` (sample-and-hold).
+    A non-finite true value propagates to its measurement (a fault the controller must handle).
+    """
+    n = truth.shape[0]
+    depth = history.shape[1]
+    slot = k % depth
+    for i in range(n):
+        history[i, slot] = truth[i]
+        delay = int(table[i, 3])
+        if k >= delay:
+            delayed = history[i, (k - delay) % depth]
+        else:
+            delayed = history[i, 0]  # not enough history yet: the first value
+        period = int(table[i, 2])
+        if k % period == 0 or math.isnan(held[i]):
+            held[i] = delayed + table[i, 1] + table[i, 0] * noise[k, i]
+        out[i] = held[i]

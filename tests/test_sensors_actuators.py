@@ -1,0 +1,119 @@
+"""Sensors (noise, bias, rate, delay, seeding) and actuators (dead time, lag, rate and range limits)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
+from flatfree.sensors import SensorChannel, SensorSuite, sense_step
+from flatfree.vehicles import load_vehicle
+
+
+def _run_sensors(suite, truth, names, dt=1e-3, seed=0):
+    n = truth.shape[0]
+    cs = suite.compile(names, dt, n, seed)
+    out = np.empty((n, len(names)))
+    row = np.empty(len(names))
+    for k in range(n):
+        sense_step(k, truth[k], cs.table, cs.noise, cs.history, cs.held, row)
+        out[k] = row
+    return out
+
+
+def test_delay_shifts_by_whole_periods_and_rate_holds():
+    n = 50
+    ramp = np.arange(n, dtype=float)
+    truth = np.column_stack([ramp, ramp])
+    suite = SensorSuite({"a": SensorChannel(delay_s=0.003), "b": SensorChannel(rate_hz=250.0)})
+    out = _run_sensors(suite, truth, ("a", "b"))
+    # channel a: value of 3 steps earlier; the first value before that
+    np.testing.assert_array_equal(out[3:, 0], ramp[:-3])
+    np.testing.assert_array_equal(out[:3, 0], 0.0)
+    # channel b: sampled every 4 ms, held in between
+    np.testing.assert_array_equal(out[:, 1], (np.arange(n) // 4) * 4.0)
+
+
+def test_noise_statistics_bias_and_seeding():
+    n = 200_000
+    truth = np.zeros((n, 1))
+    suite = SensorSuite({"y": SensorChannel(noise_std=0.05, bias=0.2)})
+    out = _run_sensors(suite, truth, ("y",), seed=7)[:, 0]
+    # std of the sample std ~ sigma / sqrt(2 n) = 0.16 %: 1 % is > 6 sigma
+    assert np.std(out) == pytest.approx(0.05, rel=0.01)
+    # std of the sample mean ~ sigma / sqrt(n) = 1.1e-4: 1e-3 is > 8 sigma
+    assert np.mean(out) == pytest.approx(0.2, abs=1e-3)
+    again = _run_sensors(suite, truth[:1000], ("y",), seed=7)[:, 0]
+    np.testing.assert_array_equal(again, out[:1000])
+    other = _run_sensors(suite, truth[:1000], ("y",), seed=8)[:, 0]
+    assert not np.array_equal(other, out[:1000])
+    clean = _run_sensors(suite.noise_free(), truth[:10], ("y",))[:, 0]
+    np.testing.assert_array_equal(clean, 0.0)
+
+
+def test_unknown_sensor_channel_and_bad_values():
+    with pytest.raises(ValueError, match=r"\['yaw'\] are not measured signals; valid: psi, r"):
+        SensorSuite({"yaw": SensorChannel()}).compile(("psi", "r"), 1e-3, 10, 0)
+    with pytest.raises(ValueError, match="noise_std = -1"):
+        SensorChannel(noise_std=-1.0)
+    with pytest.raises(ValueError, match="rate_hz = 0.0 Hz"):
+        SensorChannel(rate_hz=0.0)
+
+
+def _act(params, cmds, vx=10.0, dt=1e-3):
+    p = params.to_array(dt)
+    st = actuator_state(params, dt)
+    out = np.empty((len(cmds), 2))
+    for k, (tq, s) in enumerate(cmds):
+        out[k] = actuate_step(tq, s, vx, p, st)
+    return out
+
+
+BASE = dict(max_steer=0.5, max_steer_rate=0.4, max_drive_torque=2000.0, max_power=50_000.0,
+            max_brake_torque=5000.0, wheel_radius=0.3)
+
+
+def test_steer_rate_and_range_limits():
+    out = _act(ActuatorParams(**BASE), [(0.0, 1.0)] * 2000)
+    # ramps at 0.4 rad/s (0.4 mrad a step), then clips at 0.5 rad
+    np.testing.assert_allclose(out[:1000, 1], 0.4e-3 * np.arange(1, 1001), rtol=1e-12)
+    assert out[-1, 1] == 0.5 and np.all(out[:, 1] <= 0.5)
+
+
+def test_first_order_lag_is_exact_for_a_held_command():
+    params = ActuatorParams(**{**BASE, "max_steer_rate": 100.0}, torque_tau=0.05, steer_tau=0.02)
+    out = _act(params, [(1000.0, 0.1)] * 200)
+    k = np.arange(1, 201)
+    np.testing.assert_allclose(out[:, 0], 1000.0 * (1 - np.exp(-k * 1e-3 / 0.05)), rtol=1e-12)
+    np.testing.assert_allclose(out[:, 1], 0.1 * (1 - np.exp(-k * 1e-3 / 0.02)), rtol=1e-12)
+
+
+def test_dead_time_and_power_cap():
+    params = ActuatorParams(**BASE, torque_delay=0.005, steer_delay=0.002)
+    cmds = [(100.0 * k, 1e-4 * k) for k in range(20)]
+    out = _act(params, cmds)
+    np.testing.assert_allclose(out[5:, 0], [100.0 * k for k in range(15)])
+    np.testing.assert_allclose(out[2:, 1], [1e-4 * k for k in range(18)], rtol=1e-12)
+    # at 50 m/s the drive torque is capped by P R / v = 50 kW * 0.3 / 50 = 300 N m
+    capped = _act(ActuatorParams(**BASE), [(2000.0, 0.0)] * 3, vx=50.0)
+    assert capped[-1, 0] == pytest.approx(300.0)
+    braking = _act(ActuatorParams(**BASE), [(-9000.0, 0.0)] * 3, vx=50.0)
+    assert braking[-1, 0] == -5000.0
+
+
+def test_non_finite_command_repeats_the_previous_one():
+    fast = ActuatorParams(**{**BASE, "max_steer_rate": 100.0})
+    out = _act(fast, [(500.0, 0.01), (math.nan, math.nan), (math.inf, 0.01)])
+    assert np.all(np.isfinite(out))
+    assert out[1, 0] == 500.0 and out[2, 0] == 500.0
+    assert out[0, 1] == out[1, 1] == pytest.approx(0.01)
+
+
+def test_from_vehicle_takes_the_preset_limits():
+    v = load_vehicle("dallara_av21")
+    a = ActuatorParams.from_vehicle(v, steer_delay=0.04)
+    assert a.max_steer == v.max_steer and a.max_power == v.max_power and a.steer_delay == 0.04
+    with pytest.raises(ValueError, match="torque_tau = -0.1 s"):
+        ActuatorParams.from_vehicle(v, torque_tau=-0.1)
