@@ -1,0 +1,10 @@
+"""Vehicle models: the paper's 3DoF design model and the 10DoF validation model."""
+
+from flatfree.models.bicycle3dof import (
+    Bicycle3DoFParams,
+    BicycleInput,
+    BicyclePoseState,
+    BicycleState,
+)
+
+__all__ = ["Bicycle3DoFParams", "BicycleInput", "BicyclePoseState", "BicycleState"]
