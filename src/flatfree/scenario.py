@@ -1,0 +1,464 @@
+"""Scenarios: one frozen, validated description of one closed-loop run, round-tripping through TOML.
+
+A :class:`Scenario` names the vehicle and plant model, the reference (a track with a speed
+profile, or a recording), the controller and its settings, the timing (plant step, control
+period, logging), sensors, actuators, the road friction and faults, and the seed. Variants come
+from ``dataclasses.replace`` (or :meth:`Scenario.with_`). A sweep is many scenarios.
+
+TOML layout (every key optional except where a section says so; units in the key names)::
+
+    name = "paper"
+    vehicle = "peugeot406"          # bundled preset or a path to a vehicle TOML file
+    plant = "10dof"                 # "10dof" (validation model) or "3dof" (design model)
+    controller = "mfc-natural"      # "flatness", "mfc-flat", "mfc-natural"
+    noise = true                    # false: every sensor noise-free (rates, delays kept)
+    seed = 0
+
+    [vehicle_overrides]             # VehicleParams fields, SI
+    mass = 1600.0
+
+    [reference]
+    track = "Norisring"             # bundled name or CSV path; or  recording = "LVMS_23_01_04_B"
+    line = "centerline"             # or "raceline"
+    lateral_offset_m = 0.0
+    laps = 1
+    a_lat_max = 6.0                 # speed profile limits [m/s^2], [m/s], [-]
+    a_drive_max = 3.0
+    a_brake_max = 6.0
+    v_max = 50.0
+    mu = 1.0
+
+    [controller_settings]           # the chosen controller's own settings (checked by it)
+
+    [timing]
+    plant_dt_s = 0.001
+    control_dt_s = 0.001
+    log_dt_s = 0.01
+    startup_s = 1.0
+    # duration_s = 60.0             # default: the reference's duration
+
+    [sensors.vx]                    # one table per measured channel
+    noise_std = 0.05
+    bias = 0.0
+    # rate_hz = 100.0
+    delay_s = 0.0
+
+    [actuators]
+    steer_tau_s = 0.0
+    steer_delay_s = 0.0
+    torque_tau_s = 0.0
+    torque_delay_s = 0.0
+
+    [road]
+    mu = 1.0
+    [[road.patch]]                  # friction patches along the reference path
+    s_start_m = 500.0
+    s_end_m = 600.0
+    mu = 0.5
+
+    [[fault]]
+    kind = "nan_measurement"        # or "steer_limit"
+    channel = "e_y"
+    t_start_s = 10.0
+    duration_s = 0.05
+
+A malformed file raises ``ValueError`` naming the file, the line and the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from flatfree._validate import finite, nonnegative, positive
+from flatfree.sensors import SensorChannel, SensorSuite
+
+__all__ = [
+    "CONTROLLERS",
+    "PLANTS",
+    "ReferenceSpec",
+    "Timing",
+    "ActuatorSpec",
+    "FrictionPatch",
+    "RoadSpec",
+    "Fault",
+    "Scenario",
+    "load_scenario",
+    "scenario_from_toml",
+    "scenario_to_toml",
+]
+
+#: Controller names (the CLI's spelling).
+CONTROLLERS = ("flatness", "mfc-flat", "mfc-natural")
+PLANTS = ("10dof", "3dof")
+LINES = ("centerline", "raceline")
+FAULT_KINDS = ("nan_measurement", "steer_limit")
+
+
+def _choice(name: str, value: Any, valid: tuple[str, ...]) -> str:
+    if value not in valid:
+        raise ValueError(f"{name} = {value!r}: must be one of {', '.join(valid)}")
+    return value
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ReferenceSpec:
+    """What to follow: a track (with a speed profile) or a recording."""
+
+    track: str | None = "Norisring"
+    recording: str | None = None
+    line: str = "centerline"
+    lateral_offset_m: float = 0.0
+    laps: int = 1
+    a_lat_max: float = 6.0  # [m/s^2]
+    a_drive_max: float = 3.0  # [m/s^2]
+    a_brake_max: float = 6.0  # [m/s^2]
+    v_max: float = 50.0  # [m/s]
+    mu: float = 1.0  # [-] friction the speed profile plans with
+
+    def __post_init__(self) -> None:
+        if (self.track is None) == (self.recording is None):
+            raise ValueError(
+                f"reference: give exactly one of track ({self.track!r}) and recording "
+                f"({self.recording!r})"
+            )
+        _choice("reference.line", self.line, LINES)
+        finite("reference.lateral_offset_m", self.lateral_offset_m, "m")
+        if int(self.laps) != self.laps or self.laps < 1:
+            raise ValueError(f"reference.laps = {self.laps!r}: must be an integer >= 1")
+        for k, u in (("a_lat_max", "m/s^2"), ("a_drive_max", "m/s^2"),
+                     ("a_brake_max", "m/s^2"), ("v_max", "m/s"), ("mu", "-")):
+            positive(f"reference.{k}", getattr(self, k), u)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Timing:
+    """Plant step, control period, logging period, start-up interval, duration (all seconds)."""
+
+    plant_dt_s: float = 0.001
+    control_dt_s: float = 0.001
+    log_dt_s: float = 0.01
+    startup_s: float = 1.0
+    duration_s: float | None = None
+
+    def __post_init__(self) -> None:
+        positive("timing.plant_dt_s", self.plant_dt_s, "s")
+        positive("timing.control_dt_s", self.control_dt_s, "s")
+        positive("timing.log_dt_s", self.log_dt_s, "s")
+        nonnegative("timing.startup_s", self.startup_s, "s")
+        if self.duration_s is not None:
+            positive("timing.duration_s", self.duration_s, "s")
+        for k in ("control_dt_s", "log_dt_s"):
+            ratio = getattr(self, k) / self.plant_dt_s
+            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+                raise ValueError(
+                    f"timing.{k} = {getattr(self, k)!r} s: must be a whole multiple of "
+                    f"plant_dt_s = {self.plant_dt_s!r} s"
+                )
+
+    @property
+    def control_every(self) -> int:
+        """Plant steps per control period."""
+        return round(self.control_dt_s / self.plant_dt_s)
+
+    @property
+    def log_every(self) -> int:
+        """Plant steps per logged sample."""
+        return round(self.log_dt_s / self.plant_dt_s)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ActuatorSpec:
+    """Actuator dynamics; the limits come from the vehicle preset."""
+
+    steer_tau_s: float = 0.0
+    steer_delay_s: float = 0.0
+    torque_tau_s: float = 0.0
+    torque_delay_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            nonnegative(f"actuators.{f.name}", getattr(self, f.name), "s")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class FrictionPatch:
+    """A stretch of road [s_start_m, s_end_m) along the reference path with friction ``mu``."""
+
+    s_start_m: float
+    s_end_m: float
+    mu: float
+
+    def __post_init__(self) -> None:
+        nonnegative("road.patch.s_start_m", self.s_start_m, "m")
+        if finite("road.patch.s_end_m", self.s_end_m, "m") <= self.s_start_m:
+            raise ValueError(
+                f"road.patch.s_end_m = {self.s_end_m!r} m: must exceed s_start_m = "
+                f"{self.s_start_m!r} m"
+            )
+        positive("road.patch.mu", self.mu, "-")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class RoadSpec:
+    """Road friction: a base ``mu`` and patches along the path."""
+
+    mu: float = 1.0
+    patches: tuple[FrictionPatch, ...] = ()
+
+    def __post_init__(self) -> None:
+        positive("road.mu", self.mu, "-")
+        object.__setattr__(self, "patches", tuple(self.patches))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Fault:
+    """A fault injected during the run.
+
+    ``nan_measurement``: the measured ``channel`` reads NaN during the interval.
+    ``steer_limit``: the steering range is limited to ``value`` [rad] during the interval.
+    """
+
+    kind: str
+    t_start_s: float
+    duration_s: float
+    channel: str | None = None
+    value: float | None = None
+
+    def __post_init__(self) -> None:
+        _choice("fault.kind", self.kind, FAULT_KINDS)
+        nonnegative("fault.t_start_s", self.t_start_s, "s")
+        positive("fault.duration_s", self.duration_s, "s")
+        if self.kind == "nan_measurement" and not self.channel:
+            raise ValueError("fault.channel: a nan_measurement fault needs the channel name")
+        if self.kind == "steer_limit":
+            if self.value is None:
+                raise ValueError("fault.value: a steer_limit fault needs the limit [rad]")
+            nonnegative("fault.value", self.value, "rad")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Scenario:
+    """One closed-loop run, fully described (see the module docstring for the TOML layout)."""
+
+    name: str = "custom"
+    description: str = ""
+    vehicle: str = "peugeot406"
+    vehicle_overrides: Mapping[str, float] = field(default_factory=dict)
+    plant: str = "10dof"
+    controller: str = "mfc-natural"
+    controller_settings: Mapping[str, Any] = field(default_factory=dict)
+    reference: ReferenceSpec = field(default_factory=ReferenceSpec)
+    timing: Timing = field(default_factory=Timing)
+    sensors: SensorSuite = field(default_factory=SensorSuite)
+    noise: bool = True
+    actuators: ActuatorSpec = field(default_factory=ActuatorSpec)
+    road: RoadSpec = field(default_factory=RoadSpec)
+    faults: tuple[Fault, ...] = ()
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        _choice("plant", self.plant, PLANTS)
+        _choice("controller", self.controller, CONTROLLERS)
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
+            raise ValueError(f"seed = {self.seed!r}: must be an integer >= 0")
+        if not isinstance(self.noise, bool):
+            raise ValueError(f"noise = {self.noise!r}: must be true or false")
+        for k, v in self.vehicle_overrides.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+                raise ValueError(f"vehicle_overrides.{k} = {v!r}: expected a number")
+        for f, cls in (("reference", ReferenceSpec), ("timing", Timing),
+                       ("sensors", SensorSuite), ("actuators", ActuatorSpec),
+                       ("road", RoadSpec)):
+            if not isinstance(getattr(self, f), cls):
+                raise ValueError(f"{f} = {getattr(self, f)!r}: expected a {cls.__name__}")
+        object.__setattr__(self, "vehicle_overrides",
+                           MappingProxyType(dict(self.vehicle_overrides)))
+        object.__setattr__(self, "controller_settings",
+                           MappingProxyType(dict(self.controller_settings)))
+        object.__setattr__(self, "faults", tuple(self.faults))
+
+    def with_(self, **changes: Any) -> Scenario:
+        """A copy with top-level fields replaced (validated)."""
+        return dataclasses.replace(self, **changes)
+
+    @property
+    def effective_sensors(self) -> SensorSuite:
+        """The sensors as used: noise-free when ``noise`` is false."""
+        return self.sensors if self.noise else self.sensors.noise_free()
+
+    # ----- TOML -----
+    def to_toml(self) -> str:
+        """The scenario as TOML text (read back by :func:`scenario_from_toml`)."""
+        return scenario_to_toml(self)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the scenario to a TOML file."""
+        path = Path(path)
+        path.write_text(self.to_toml(), encoding="utf-8")
+        return path
+
+
+# ------------------------------------------------------------------------------------------
+# TOML <-> Scenario
+# ------------------------------------------------------------------------------------------
+_TOP_KEYS = ("name", "description", "vehicle", "plant", "controller", "noise", "seed")
+_TABLES = ("vehicle_overrides", "controller_settings", "reference", "timing", "sensors",
+           "actuators", "road", "fault")
+
+
+def _plain(obj) -> dict[str, Any]:
+    """A flat dataclass as a dict without None values."""
+    return {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)
+            if getattr(obj, f.name) is not None}
+
+
+def scenario_to_toml(sc: Scenario) -> str:
+    """Serialise a scenario (inverse of :func:`scenario_from_toml`)."""
+    import tomli_w
+
+    doc: dict[str, Any] = {k: getattr(sc, k) for k in _TOP_KEYS}
+    if sc.vehicle_overrides:
+        doc["vehicle_overrides"] = dict(sc.vehicle_overrides)
+    if sc.controller_settings:
+        doc["controller_settings"] = dict(sc.controller_settings)
+    doc["reference"] = _plain(sc.reference)
+    doc["timing"] = _plain(sc.timing)
+    if sc.sensors.channels:
+        doc["sensors"] = {k: _plain(c) for k, c in sc.sensors.channels.items()}
+    doc["actuators"] = _plain(sc.actuators)
+    road: dict[str, Any] = {"mu": sc.road.mu}
+    if sc.road.patches:
+        road["patch"] = [_plain(p) for p in sc.road.patches]
+    doc["road"] = road
+    if sc.faults:
+        doc["fault"] = [_plain(f) for f in sc.faults]
+    return tomli_w.dumps(doc)
+
+
+def _line_of(text: str, table: str | None, key: str | None) -> int | None:
+    """Line number (1-based) where ``key`` is set inside ``table`` (None: top level)."""
+    current: str | None = None
+    header = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
+    assign = re.compile(r"^\s*([A-Za-z0-9_\-\"'.]+)\s*=")
+    for i, line in enumerate(text.splitlines(), start=1):
+        m = header.match(line)
+        if m:
+            current = m.group(1).strip()
+            if key is None and current == table:
+                return i
+            continue
+        m = assign.match(line)
+        if m and key is not None and current == table and m.group(1).strip("\"'") == key:
+            return i
+    return None
+
+
+class _Where:
+    """Turns a validation error into one that names the file, the line and the field."""
+
+    def __init__(self, text: str, source: str) -> None:
+        self.text = text
+        self.source = source
+
+    def error(self, exc: Exception, table: str | None, key: str | None) -> ValueError:
+        line = _line_of(self.text, table, key) or _line_of(self.text, table, None)
+        fld = key if table is None else f"{table}.{key}" if key else table
+        at = f", line {line}" if line else ""
+        msg = str(exc)
+        return ValueError(f"{self.source}{at}: field {fld}: {msg}")
+
+    def build(self, cls, table: str, values: Mapping[str, Any], prefix: str | None = None):
+        prefix = prefix or table
+        known = {f.name for f in dataclasses.fields(cls)}
+        for key in values:
+            if key not in known:
+                raise self.error(
+                    ValueError(f"unknown key; valid keys: {', '.join(sorted(known))}"),
+                    prefix, key)
+        try:
+            return cls(**values)
+        except (TypeError, ValueError) as exc:
+            key = _field_in_message(str(exc), values)
+            raise self.error(exc, prefix, key) from None
+
+
+def _field_in_message(msg: str, values: Mapping[str, Any]) -> str | None:
+    """The key of ``values`` that a validation message names first."""
+    best: tuple[int, str] | None = None
+    for key in values:
+        m = re.search(rf"(^|[\s.]){re.escape(key)}\b", msg)
+        if m and (best is None or m.start() < best[0]):
+            best = (m.start(), key)
+    return best[1] if best else None
+
+
+def scenario_from_toml(text: str, source: str = "<scenario>") -> Scenario:
+    """Parse TOML text into a :class:`Scenario`; errors name the line and the field."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{source}: malformed TOML: {exc}") from None
+    where = _Where(text, source)
+    for key in doc:
+        if key not in _TOP_KEYS and key not in _TABLES:
+            raise where.error(ValueError(
+                f"unknown key; valid keys: {', '.join(_TOP_KEYS + _TABLES)}"), None, key)
+
+    def table(name: str) -> dict:
+        value = doc.get(name, {})
+        if not isinstance(value, dict):
+            raise where.error(ValueError("expected a table"), None, name)
+        return value
+
+    kwargs: dict[str, Any] = {k: doc[k] for k in _TOP_KEYS if k in doc}
+    kwargs["vehicle_overrides"] = table("vehicle_overrides")
+    kwargs["controller_settings"] = table("controller_settings")
+    kwargs["reference"] = where.build(ReferenceSpec, "reference", _reference_values(doc))
+    kwargs["timing"] = where.build(Timing, "timing", table("timing"))
+    channels = {}
+    for ch, values in table("sensors").items():
+        if not isinstance(values, dict):
+            raise where.error(ValueError("expected a table"), "sensors", ch)
+        channels[ch] = where.build(SensorChannel, f"sensors.{ch}", values)
+    kwargs["sensors"] = SensorSuite(channels)
+    kwargs["actuators"] = where.build(ActuatorSpec, "actuators", table("actuators"))
+    road = dict(table("road"))
+    patches = road.pop("patch", [])
+    kwargs["road"] = where.build(RoadSpec, "road", {
+        **road,
+        "patches": tuple(where.build(FrictionPatch, "road.patch", p) for p in patches),
+    })
+    faults = doc.get("fault", [])
+    if not isinstance(faults, list):
+        raise where.error(ValueError("expected an array of tables [[fault]]"), None, "fault")
+    kwargs["faults"] = tuple(where.build(Fault, "fault", f) for f in faults)
+    try:
+        return Scenario(**kwargs)
+    except (TypeError, ValueError) as exc:
+        key = _field_in_message(str(exc), {k: None for k in _TOP_KEYS})
+        raise where.error(exc, None, key) from None
+
+
+def _reference_values(doc: dict) -> dict:
+    ref = dict(doc.get("reference", {}))
+    if "recording" in ref and "track" not in ref:
+        ref["track"] = None  # a recording replaces the default track
+    return ref
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read a scenario TOML file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ValueError(f"scenario file not found: {path}") from None
+    return scenario_from_toml(text, source=str(path))
+
