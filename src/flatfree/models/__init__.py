@@ -6,5 +6,16 @@ from flatfree.models.bicycle3dof import (
     BicyclePoseState,
     BicycleState,
 )
+from flatfree.models.tendof import TenDoF, TenDoFInput, TenDoFOptions, TenDoFState, Wheel
 
-__all__ = ["Bicycle3DoFParams", "BicycleInput", "BicyclePoseState", "BicycleState"]
+__all__ = [
+    "Bicycle3DoFParams",
+    "BicycleInput",
+    "BicyclePoseState",
+    "BicycleState",
+    "TenDoF",
+    "TenDoFInput",
+    "TenDoFOptions",
+    "TenDoFState",
+    "Wheel",
+]

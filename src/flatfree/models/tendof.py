@@ -1,0 +1,1124 @@
+"""The 10DoF validation model: the "truth" plant of flatfree's closed-loop tests.
+
+A two-track (four-wheel) car with a sprung body that heaves, rolls and pitches on springs,
+dampers and anti-roll bars, four spinning wheels, per-wheel vertical loads and per-wheel
+combined-slip Magic Formula tyres (:mod:`flatfree.tires`), aerodynamic drag and lift, and
+rolling resistance. Equations: ``shared/reference/VEHICLE_MODEL.md`` ([VM]) sections 1.1-1.9;
+the numbered choices below are this module's, and each says why.
+
+Frame, reference point and signs
+--------------------------------
+ISO 8855: body axes x forward, y left, z up at the CoG; ground frame X, Y, Z up; yaw ``psi``
+counter-clockwise positive. Roll ``phi > 0`` raises the left side; pitch ``theta > 0`` lowers
+the nose; heave ``z > 0`` raises the body. Wheels ``fl, fr, rl, rr`` sit at ``x_f = +l_f``,
+``x_r = -l_r``, ``y_l = +T/2``, ``y_r = -T/2``. Slip ratio ``kappa > 0`` when driving (then
+``F_x > 0``); slip angle ``alpha > 0`` gives ``F_y < 0`` ([VM] section 0).
+
+State (:class:`TenDoFState`, 22 entries)
+----------------------------------------
+==================  ========  =========================================================
+name                unit      meaning
+==================  ========  =========================================================
+x, y                m         CoG position in the ground frame
+psi                 rad       yaw angle
+vx, vy              m/s       CoG velocity in body axes
+r                   rad/s     yaw rate
+heave, heave_rate   m, m/s    sprung-body heave from static equilibrium (up +)
+roll, roll_rate     rad, -/s  sprung-body roll angle phi and its rate
+pitch, pitch_rate   rad, -/s  sprung-body pitch angle theta and its rate
+omega_fl .. rr      rad/s     wheel spin speeds (forward rolling > 0)
+kappa_fl .. rr      -         transient (relaxed) longitudinal slips kappa'
+ax_filt, ay_filt    m/s^2     low-passed body accelerations (quasi-static load transfer)
+==================  ========  =========================================================
+
+"10DoF" counts the six body DoF x, y, yaw, heave, roll, pitch and the four wheel spins; the
+four relaxed slips and the two filtered accelerations are first-order auxiliary states.
+
+Inputs (:class:`TenDoFInput`, 6 entries)
+-----------------------------------------
+``tw`` [N m] total wheel torque: ``>= 0`` drives, split equally on the driven axle
+(``VehicleParams.drive``; an open differential, [VM] 1.7); ``< 0`` brakes, ``|tw|`` split
+``brake_balance_front`` / rest on the front / rear axle and equally left / right, applied
+against the wheel's spin with a smooth sign. ``delta`` [rad] road-wheel steer angle of the
+front axle (parallel steer, or Ackermann with :attr:`TenDoFOptions.ackermann`).
+``mu_fl .. mu_rr`` [-] road friction scale under each wheel, ``mu_road / mu_ref`` (1 = the
+road of the tyre data): it scales the Magic Formula peaks and may vary in time or along the
+road (a wet patch). Input limits are *not* in the model (the actuators clip them).
+
+Model
+-----
+1. Planar motion, reduced Newton-Euler form ([VM] 1.3)::
+
+       m (vx' - r vy) = sum F_X - F_D,   m (vy' + r vx) = sum F_Y,
+       I_z r' = sum (x_i F_Y,ij - y_j F_X,ij)
+
+   with body-axis tyre forces ``F_X = F_x cos d - F_y sin d``, ``F_Y = F_x sin d + F_y cos d``
+   ([VM] 1.2) and drag ``F_D = 1/2 rho C_d A vx |vx|`` ([VM] 1.9). The sprung-mass offset
+   terms ``m_s h' phi''`` and products of inertia are neglected, as is road grade.
+2. Sprung body (mass ``m_s``, CoG height ``h_s`` from ``m h = m_s h_s + m_u R_e``, the
+   unsprung mass ``m_u = m - m_s`` split equally between the axles at wheel-centre height)
+   heaving, rolling about the roll axis (height ``h_rc`` at the CoG, interpolated between the
+   axles' roll centres; arm ``h' = h_s - h_rc``) and pitching about a ground-level axis
+   (arm ``h'' = h_s``), small angles ([VM] 1.4)::
+
+       m_s z''                  = sum dF_s + sum F_L
+       (I_xs + m_s h'^2) phi''  =  m_s h' (a_y + g sin phi) + sum y_j (dF_s + dF_arb)
+       (I_ys + m_s h''^2) th''  = -m_s h'' a_x - F_D h_a + m_s g h'' sin th
+                                  - sum x_i dF_s - l_f F_L,f + l_r F_L,r
+
+   with corner deflection ``s_ij = -z + x_i th - y_j phi``, ``dF_s = k_i s + c_i s'``,
+   ``dF_arb = -(2 y_j / T_i^2) K_arb,i phi`` and the aerodynamic vertical force on the body
+   ``F_L,i = 1/2 rho C_L,i A vx^2`` per axle (up +; ``C_L < 0`` is downforce; [VM] 1.9 writes
+   the wheel-load increase, which is ``-F_L,i``). The inertia is taken about the rotation axis
+   (``I_xs`` about the sprung CoG plus ``m_s h'^2``). Heave makes the suspension forces sum to
+   the lift only, so the wheel loads sum to ``m g - sum F_L`` in every steady state; without
+   heave a pitch angle would load both axles whenever ``k_f l_f != k_r l_r``.
+3. Wheel loads ([VM] 1.5): ``F_z,ij = F_z0,ij + dF_s + dF_arb + dF_geo + dF_u``, clamped at 0,
+   with the static ``F_z0 = m g l_r / (2L)`` (front), ``m g l_f / (2L)`` (rear). The transfer
+   that does not pass through the springs (roll-centre links ``dF_geo = -/+ m_s (share_i)
+   a_y h_rc,i / T_i``, unsprung masses ``-/+ m_u,i a_y R_e / T_i`` and ``-/+ m_u a_x R_e / (2L)``)
+   uses the low-passed accelerations ``ax_filt, ay_filt`` (time constant
+   :attr:`TenDoFOptions.accel_filter_time`): the same-step accelerations would make an
+   algebraic loop ([VM] 1.5 recommends 10-50 ms). In steady state the total lateral
+   transfer is ``m h a_y + m_s h' g sin phi`` and the longitudinal ``m h a_x + F_D h_a``
+   (as [VM] 5.2-5.3).
+4. Contact points and slips ([VM] 1.6): ``v_x,ij = vx - r y_j``, ``v_y,ij = vy + r x_i``,
+   rotated into wheel axes. The slip angle is the tyre module's ``slip_angle`` with the floor
+   speed :attr:`TenDoFOptions.v_min_lat` (remedy 1 of [VM] section 3, lateral only).
+5. Longitudinal slip: relaxation length with carcass damping (remedy 2 of [VM] section 3,
+   [P12] section 7.2)::
+
+       sigma_x kappa'' = (Omega R_e - v_xw) - |v_xw| kappa'       (kappa'' := d kappa'/dt)
+       kappa_eff       = kappa' + tau_d d(kappa')/dt
+
+   ``kappa_eff`` enters the combined-slip Magic Formula ``mf_combined(kappa_eff, alpha, F_z,
+   mu)``. In steady state ``kappa' = (Omega R_e - v_xw)/|v_xw|``, the plain slip ratio, so
+   steady-state behaviour is the textbook model's. *Why*: with the plain slip the wheel-spin
+   mode has the eigenvalue ``-R_e^2 C_kappa / (I_w |v|)``, unbounded at standstill; for the
+   peugeot406 front wheel (light wheel, stiff load-sensitive tyre) RK4 at 1 ms is unstable
+   below 3.7 m/s at static load and below about 8 m/s at 1.75 x static load, so a floor speed
+   in the slip denominator would have to be larger than that ([VM] section 3 table). With the
+   relaxed slip the wheel and tyre form a second-order system ``s^2 + (|v|/sigma_x +
+   omega_n^2 tau_d) s + omega_n^2``, ``omega_n^2 = R_e^2 C_kappa / (I_w sigma_x)``, whose
+   frequency does not depend on speed (228 rad/s for the 406 front at static load:
+   ``omega_n dt = 0.23`` at 1 ms). The Kelvin-Voigt carcass damping ``tau_d =
+   2 zeta_0 / omega_n`` (at static load, :attr:`TenDoFOptions.carcass_damping_ratio`) damps
+   that mode at standstill, where the relaxation alone leaves it undamped, and changes no
+   steady state because ``d(kappa')/dt = 0`` there. The relaxation lengths are the tyre's
+   ``relaxation_length_x``.
+6. Wheel spin ([VM] 1.7)::
+
+       I_w Omega' = T_d - T_b sgn_e(Omega) - R_e F_x - f_r F_z R_e sgn_0(Omega)
+
+   ``sgn_e(w) = w / sqrt(w^2 + e^2)``. Rolling resistance uses ``e_0 =``
+   :attr:`TenDoFOptions.sign_speed`; the brake uses ``e_b = max(e_0, T_b tau_b / I_w)``, so
+   the viscous slope of the brake near ``Omega = 0`` never exceeds ``I_w / tau_b``
+   (``tau_b =`` :attr:`TenDoFOptions.brake_time_constant`), whatever the brake torque:
+   the sheet's condition ``e >= T_b dt / (2.785 I_w)`` then holds for ``dt <= 2.785 tau_b``.
+   Wheels may spin backwards (no clamp), so the model can reverse.
+
+Low speed and stable step
+-------------------------
+Starts from standstill and stops to 0 are regular: every right-hand side term is finite at
+``vx = 0, Omega = 0``; at standstill the tyres act as a longitudinal spring-damper
+(``C_kappa / sigma_x``, ``C_kappa tau_d / sigma_x``) and a lateral damper
+(``C_alpha / s(0)``, ``s(0) = 3 v_min_lat / 8``). :func:`stable_step` computes the largest
+stable RK4 step of the model linearised at a state and input; over standstill to 60 m/s,
+coasting, braking with 70 % of the maximum brake torque and steering, its minimum is
+2.0 ms (peugeot406), 2.3 ms (bmw320i, dallara_av21), reached at standstill under braking;
+it is 4-7 ms at 0.5 m/s, 10-20 ms from 2 to 40 m/s and ~7 ms at 60 m/s (table in
+``benchmarks/README.md``). The default ``dt = 1 ms`` is inside with a factor >= 2. With plain
+slips RK4 at 1 ms is unstable below 1.7 m/s (bmw320i) and 3.7 m/s (peugeot406) ([VM] 3).
+The right-hand side has kinks only at ``vx = 0`` (``|v_xw|``), ``|v_xw| = v_min_lat`` (C2
+there) and ``F_z = 0`` (lift-off); inputs switch the drive/brake branch at ``tw = 0``.
+
+Speed: about 2.5 us per RK4 step (~400x real time at 1 ms) on the project's machine, 80-90 %
+of it in the 16 Magic Formula evaluations of a step (``benchmarks/README.md``).
+
+Implementation
+--------------
+One implementation of the dynamics, :func:`rhs_kernel` (``numba.njit(cache=True)``), used by
+the compiled RK4 step :func:`rk4_step_kernel`, the compiled loop :func:`simulate_kernel`
+(writing into preallocated arrays), the Python-callable ``rhs(t, x)`` for
+``scipy.integrate.solve_ivp`` (:meth:`TenDoF.ivp_rhs`) and the per-wheel diagnostics
+(:meth:`TenDoF.diagnostics`). Parameters enter the kernels as flat arrays: ``MP`` (derived
+vehicle and model constants, built by :meth:`TenDoF.__init__`) and the two tyres'
+``TireParams.to_array()``.
+
+References
+----------
+[VM] shared/reference/VEHICLE_MODEL.md, sections 0, 1.1-1.9, 3 and 5.
+[P12] H. B. Pacejka, Tire and Vehicle Dynamics, 3rd ed., 2012, section 4.3.2 (Magic Formula)
+      and section 7.2 (single-contact-point transient tyre model, relaxation length).
+[Raj] R. Rajamani, Vehicle Dynamics and Control, 2nd ed., 2012, Ch. 2 and Ch. 4.
+[K&N] U. Kiencke, L. Nielsen, Automotive Control Systems, 2nd ed., 2005 (two-track model).
+[HW] E. Hairer, G. Wanner, Solving ODEs II, section IV.2 (RK4 stability region).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from flatfree._validate import finite, positive
+from flatfree.tires import mf_combined, slip_angle, slip_stiffness
+from flatfree.units import G
+from flatfree.vehicles.params import VehicleParams
+
+__all__ = [
+    "MP",
+    "TenDoF",
+    "TenDoFInput",
+    "TenDoFOptions",
+    "TenDoFState",
+    "Wheel",
+    "rhs_kernel",
+    "rk4_step_kernel",
+    "simulate_kernel",
+    "stable_step",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# Layouts
+# --------------------------------------------------------------------------------------------
+class TenDoFState(enum.IntEnum):
+    """State layout of the 10DoF model (units in the module docstring)."""
+
+    x = 0
+    y = 1
+    psi = 2
+    vx = 3
+    vy = 4
+    r = 5
+    heave = 6
+    heave_rate = 7
+    roll = 8
+    roll_rate = 9
+    pitch = 10
+    pitch_rate = 11
+    omega_fl = 12
+    omega_fr = 13
+    omega_rl = 14
+    omega_rr = 15
+    kappa_fl = 16
+    kappa_fr = 17
+    kappa_rl = 18
+    kappa_rr = 19
+    ax_filt = 20
+    ay_filt = 21
+
+
+class TenDoFInput(enum.IntEnum):
+    """Input layout: tw [N m], delta [rad], mu_fl, mu_fr, mu_rl, mu_rr [-] (module docstring)."""
+
+    tw = 0
+    delta = 1
+    mu_fl = 2
+    mu_fr = 3
+    mu_rl = 4
+    mu_rr = 5
+
+
+class Wheel(enum.IntEnum):
+    """Wheel order of every per-wheel array: front left, front right, rear left, rear right."""
+
+    fl = 0
+    fr = 1
+    rl = 2
+    rr = 3
+
+
+class MP(enum.IntEnum):
+    """Index enum of the kernels' model-parameter array (built by :class:`TenDoF`)."""
+
+    m = 0  # total mass [kg]
+    m_s = 1  # sprung mass [kg]
+    m_u_axle = 2  # unsprung mass per axle [kg]
+    lf = 3  # [m]
+    lr = 4  # [m]
+    wheelbase = 5  # [m]
+    track_f = 6  # [m]
+    track_r = 7  # [m]
+    h_s = 8  # sprung CoG height [m]
+    h_roll = 9  # roll arm h' [m]
+    h_rc_f = 10  # front roll-centre height [m]
+    h_rc_r = 11  # rear roll-centre height [m]
+    iz = 12  # [kg m^2]
+    i_roll = 13  # roll inertia about the roll axis [kg m^2]
+    i_pitch = 14  # pitch inertia about the pitch axis [kg m^2]
+    k_f = 15  # spring per corner [N/m]
+    k_r = 16
+    c_f = 17  # damper per corner [N s/m]
+    c_r = 18
+    arb_f = 19  # anti-roll bar axle stiffness [N m/rad]
+    arb_r = 20
+    r_e = 21  # effective rolling radius [m]
+    iw_f = 22  # wheel spin inertia [kg m^2]
+    iw_r = 23
+    drive_front = 24  # 1 if the front axle is driven, else 0
+    brake_front = 25  # brake share of the front axle [-]
+    f_roll = 26  # rolling resistance coefficient [-]
+    drag = 27  # 1/2 rho C_d A [kg/m]
+    lift_f = 28  # 1/2 rho C_L,f A [kg/m]
+    lift_r = 29
+    h_drag = 30  # [m]
+    fz0_f = 31  # static load per front wheel [N]
+    fz0_r = 32  # static load per rear wheel [N]
+    g = 33  # [m/s^2]
+    sigma_f = 34  # longitudinal relaxation length [m]
+    sigma_r = 35
+    tau_d_f = 36  # carcass damping time [s]
+    tau_d_r = 37
+    v_min_lat = 38  # floor speed of the slip-angle denominator [m/s]
+    tau_brake = 39  # brake stiction time constant [s]
+    sign_speed = 40  # smooth-sign width for rolling resistance [rad/s]
+    tau_acc = 41  # acceleration filter time constant [s]
+    ackermann = 42  # 1 for Ackermann steering, 0 for parallel
+    h_u = 43  # unsprung CoG height = R_e [m]
+
+
+NX = len(TenDoFState)
+NU = len(TenDoFInput)
+#: Columns of the per-wheel diagnostics array written by :func:`rhs_kernel`.
+DIAG_FIELDS = ("fz", "fx", "fy", "alpha", "kappa", "kappa_plain")
+NDIAG = len(DIAG_FIELDS)
+
+# integer constants for the kernels (numba freezes module-level ints at compile time).
+# NOTE: numba's on-disk cache does not notice a change of these layouts; clear it after editing.
+_X, _Y, _PSI, _VX, _VY, _R = 0, 1, 2, 3, 4, 5
+_Z, _ZD, _PHI, _PHID, _TH, _THD = 6, 7, 8, 9, 10, 11
+_OM, _KA, _AXF, _AYF = 12, 16, 20, 21
+_TW, _DELTA, _MU = 0, 1, 2
+_M = int(MP.m)
+_MS = int(MP.m_s)
+_MUA = int(MP.m_u_axle)
+_LF = int(MP.lf)
+_LR = int(MP.lr)
+_L = int(MP.wheelbase)
+_TF = int(MP.track_f)
+_TR = int(MP.track_r)
+_HS = int(MP.h_s)
+_HROLL = int(MP.h_roll)
+_HRCF = int(MP.h_rc_f)
+_HRCR = int(MP.h_rc_r)
+_IZ = int(MP.iz)
+_IROLL = int(MP.i_roll)
+_IPITCH = int(MP.i_pitch)
+_KF = int(MP.k_f)
+_KR = int(MP.k_r)
+_CF = int(MP.c_f)
+_CR = int(MP.c_r)
+_ARBF = int(MP.arb_f)
+_ARBR = int(MP.arb_r)
+_RE = int(MP.r_e)
+_IWF = int(MP.iw_f)
+_IWR = int(MP.iw_r)
+_DRVF = int(MP.drive_front)
+_BRKF = int(MP.brake_front)
+_FR = int(MP.f_roll)
+_DRAG = int(MP.drag)
+_LIFTF = int(MP.lift_f)
+_LIFTR = int(MP.lift_r)
+_HD = int(MP.h_drag)
+_FZ0F = int(MP.fz0_f)
+_FZ0R = int(MP.fz0_r)
+_G = int(MP.g)
+_SIGF = int(MP.sigma_f)
+_SIGR = int(MP.sigma_r)
+_TDF = int(MP.tau_d_f)
+_TDR = int(MP.tau_d_r)
+_VMIN = int(MP.v_min_lat)
+_TAUB = int(MP.tau_brake)
+_SGN0 = int(MP.sign_speed)
+_TAUA = int(MP.tau_acc)
+_ACK = int(MP.ackermann)
+_HU = int(MP.h_u)
+
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
+
+
+# --------------------------------------------------------------------------------------------
+# Options
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True, kw_only=True)
+class TenDoFOptions:
+    """Modelling choices and low-speed regularisation of the 10DoF model.
+
+    Attributes
+    ----------
+    ackermann : bool
+        Ackermann steering geometry ([VM] 1.8) instead of parallel steer (default, as
+        CommonRoad's MB model).
+    v_min_lat : float
+        Floor speed of the slip-angle denominator [m/s], > 0 ([VM] section 3, remedy 1; the
+        tyre module's smooth ``slip_speed``). Default 1.0 m/s [estimate]: keeps the lateral and
+        yaw modes at standstill (``|lambda| ~ sum C_alpha / (m 3 v_min / 8)``) well inside the
+        RK4 region at 1 ms for the three presets; above ``v_min_lat`` the slip angle is exact.
+    carcass_damping_ratio : float
+        Damping ratio zeta_0 [-] of the wheel-spin / tyre-deflection mode at standstill and static
+        load, >= 0 (module docstring, item 5). Default 0.5 [estimate].
+    brake_time_constant : float
+        tau_b [s], > 0: the brake's smooth sign is never steeper than ``I_w / tau_b``
+        (module docstring, item 6). Default 1 ms [estimate], i.e. stable RK4 steps up to
+        about 2.8 ms from this term.
+    sign_speed : float
+        Width e_0 [rad/s], > 0, of the smooth sign of the rolling resistance (and the lower
+        bound of the brake's). Default 0.1 rad/s [estimate] (3 cm/s of tread speed).
+    accel_filter_time : float
+        Time constant [s], > 0, of the low-pass filter on the accelerations that drive the
+        quasi-static load transfer (module docstring, item 3). Default 10 ms, the low end of
+        [VM] 1.5's 10-50 ms.
+    """
+
+    ackermann: bool = field(default=False, metadata={"unit": ""})
+    v_min_lat: float = field(default=1.0, metadata={"unit": "m/s"})
+    carcass_damping_ratio: float = field(default=0.5, metadata={"unit": "-"})
+    brake_time_constant: float = field(default=1e-3, metadata={"unit": "s"})
+    sign_speed: float = field(default=0.1, metadata={"unit": "rad/s"})
+    accel_filter_time: float = field(default=0.01, metadata={"unit": "s"})
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.ackermann, bool):
+            raise ValueError(f"ackermann = {self.ackermann!r}: expected True or False")
+        positive("v_min_lat", self.v_min_lat, "m/s")
+        v = finite("carcass_damping_ratio", self.carcass_damping_ratio, "-")
+        if v < 0.0:
+            raise ValueError(f"carcass_damping_ratio = {v!r}: must be >= 0")
+        positive("brake_time_constant", self.brake_time_constant, "s")
+        positive("sign_speed", self.sign_speed, "rad/s")
+        positive("accel_filter_time", self.accel_filter_time, "s")
+
+
+# --------------------------------------------------------------------------------------------
+# Compiled kernels
+# --------------------------------------------------------------------------------------------
+@njit(**_JIT)
+def _smooth_sign(w: float, eps: float) -> float:
+    """``w / sqrt(w^2 + eps^2)``: odd, slope ``1/eps`` at 0, -> sgn(w) for ``|w| >> eps``."""
+    return w / math.sqrt(w * w + eps * eps)
+
+
+@njit(**_JIT)
+def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
+    """Time derivative of the 10DoF state (module docstring), written into ``dx``.
+
+    Parameters
+    ----------
+    x : float64[22]
+        State, :class:`TenDoFState` layout.
+    u : float64[6]
+        Input, :class:`TenDoFInput` layout (not clipped, not checked).
+    p : float64[len(MP)]
+        Model parameters, :class:`MP` layout.
+    tpf, tpr : float64[len(TP)]
+        Front and rear ``TireParams.to_array()``.
+    dx : float64[22]
+        Output.
+    diag : float64[4, 6]
+        Output: per wheel (:class:`Wheel` order) the columns ``DIAG_FIELDS`` = vertical load
+        [N], tyre forces ``F_x``, ``F_y`` in wheel axes [N], slip angle [rad], the slip
+        ``kappa_eff`` seen by the tyre [-] and the plain slip ratio
+        ``(Omega R_e - v_xw)/max(|v_xw|, v_min_lat)`` [-].
+
+    References
+    ----------
+    [VM] sections 1.2-1.9; [P12] 4.3.2 and 7.2.
+    """
+    vx = x[_VX]
+    vy = x[_VY]
+    r = x[_R]
+    z = x[_Z]
+    zd = x[_ZD]
+    phi = x[_PHI]
+    phid = x[_PHID]
+    th = x[_TH]
+    thd = x[_THD]
+    axf = x[_AXF]
+    ayf = x[_AYF]
+    tw = u[_TW]
+    delta = u[_DELTA]
+
+    m = p[_M]
+    ms = p[_MS]
+    lf = p[_LF]
+    lr = p[_LR]
+    wb = p[_L]
+    tf = p[_TF]
+    tr = p[_TR]
+    re = p[_RE]
+    g = p[_G]
+
+    # ---- aerodynamics ([VM] 1.9) ----
+    fd = p[_DRAG] * vx * abs(vx)  # F_D = 1/2 rho C_d A vx |vx|
+    v2 = vx * vx
+    # aerodynamic vertical force on the body, up + (C_L < 0: downforce); [VM] 1.9 writes the
+    # wheel-load increase -1/2 rho C_L A vx^2, i.e. minus this force
+    lift_f = p[_LIFTF] * v2
+    lift_r = p[_LIFTR] * v2
+
+    # ---- steering ([VM] 1.8) ----
+    if p[_ACK] != 0.0 and delta != 0.0:
+        td = math.tan(delta)
+        d_l = math.atan(wb * td / (wb - 0.5 * tf * td))  # [VM] 1.8 Ackermann, inner = left
+        d_r = math.atan(wb * td / (wb + 0.5 * tf * td))
+        cl = math.cos(d_l)
+        sl = math.sin(d_l)
+        cr_ = math.cos(d_r)
+        sr_ = math.sin(d_r)
+    else:
+        cl = math.cos(delta)
+        sl = math.sin(delta)
+        cr_ = cl
+        sr_ = sl
+
+    # ---- torques ([VM] 1.7) ----
+    if tw >= 0.0:
+        drv_f = 0.5 * tw * p[_DRVF]  # open differential: half per wheel of the driven axle
+        drv_r = 0.5 * tw * (1.0 - p[_DRVF])
+        brk_f = 0.0
+        brk_r = 0.0
+    else:
+        drv_f = 0.0
+        drv_r = 0.0
+        brk_f = -0.5 * tw * p[_BRKF]  # brake balance, half per wheel
+        brk_r = -0.5 * tw * (1.0 - p[_BRKF])
+
+    sum_fx = 0.0
+    sum_fy = 0.0
+    mz = 0.0
+    m_roll_susp = 0.0  # sum y_j (dF_s + dF_arb)
+    m_pitch_susp = 0.0  # sum x_i dF_s
+    f_heave = 0.0  # sum dF_s
+    hu = p[_HU]
+    mua = p[_MUA]
+
+    for w in range(4):
+        front = w < 2
+        left = (w % 2) == 0
+        if front:
+            xi = lf
+            tt = tf
+            k = p[_KF]
+            c = p[_CF]
+            karb = p[_ARBF]
+            fz0 = p[_FZ0F]
+            share = lr / wb
+            hrc = p[_HRCF]
+            iw = p[_IWF]
+            sig = p[_SIGF]
+            taud = p[_TDF]
+            tdrive = drv_f
+            tbrake = brk_f
+            dlong = -1.0  # front gains load when braking (a_x < 0)
+            if left:
+                cd = cl
+                sd = sl
+            else:
+                cd = cr_
+                sd = sr_
+        else:
+            xi = -lr
+            tt = tr
+            k = p[_KR]
+            c = p[_CR]
+            karb = p[_ARBR]
+            fz0 = p[_FZ0R]
+            share = lf / wb
+            hrc = p[_HRCR]
+            iw = p[_IWR]
+            sig = p[_SIGR]
+            taud = p[_TDR]
+            tdrive = drv_r
+            tbrake = brk_r
+            dlong = 1.0
+            cd = 1.0
+            sd = 0.0
+        yj = 0.5 * tt if left else -0.5 * tt
+        side = 1.0 if left else -1.0
+
+        # ---- suspension and loads ([VM] 1.4-1.5) ----
+        s = -z + xi * th - yj * phi  # corner compression
+        sd_ = -zd + xi * thd - yj * phid
+        dfs = k * s + c * sd_
+        dfarb = -(2.0 * yj / (tt * tt)) * karb * phi
+        # transfer outside the springs: roll-centre links and unsprung masses (filtered a)
+        # per wheel: lateral m_s share_i a_y h_rc,i / T_i + m_u,i a_y h_u / T_i, longitudinal
+        # (m_u h_u a_x) / (2 L) with m_u = 2 m_u,i ([VM] 1.5 moment balance)
+        dfq = -side * (ms * share * hrc + mua * hu) * ayf / tt + dlong * mua * hu * axf / wb
+        fz = fz0 + dfs + dfarb + dfq
+        if fz < 0.0:
+            fz = 0.0  # lift-off
+        f_heave += dfs
+        m_roll_susp += yj * (dfs + dfarb)
+        m_pitch_susp += xi * dfs
+
+        # ---- contact point and slips ([VM] 1.6) ----
+        vxc = vx - r * yj
+        vyc = vy + r * xi
+        vxw = vxc * cd + vyc * sd
+        vyw = -vxc * sd + vyc * cd
+        alpha = slip_angle(vxw, vyw, p[_VMIN])
+        om = x[_OM + w]
+        kap = x[_KA + w]
+        vslip = om * re - vxw  # slip speed, > 0 when driving
+        kdot = (vslip - abs(vxw) * kap) / sig  # [P12] 7.2 relaxation, sigma_x
+        dx[_KA + w] = kdot
+        keff = kap + taud * kdot  # Kelvin-Voigt carcass damping (module docstring, item 5)
+
+        fx, fy = mf_combined(keff, alpha, fz, u[_MU + w], tpf if front else tpr)
+
+        # ---- body forces ([VM] 1.2-1.3) ----
+        fxb = fx * cd - fy * sd
+        fyb = fx * sd + fy * cd
+        sum_fx += fxb
+        sum_fy += fyb
+        mz += xi * fyb - yj * fxb
+
+        # ---- wheel spin ([VM] 1.7) ----
+        sgn0 = _smooth_sign(om, p[_SGN0])
+        tq = tdrive - re * fx - p[_FR] * fz * re * sgn0
+        if tbrake > 0.0:
+            eps_b = max(p[_SGN0], tbrake * p[_TAUB] / iw)
+            tq -= tbrake * _smooth_sign(om, eps_b)
+        dx[_OM + w] = tq / iw
+
+        diag[w, 0] = fz
+        diag[w, 1] = fx
+        diag[w, 2] = fy
+        diag[w, 3] = alpha
+        diag[w, 4] = keff
+        diag[w, 5] = vslip / max(abs(vxw), p[_VMIN])
+
+    # ---- planar motion ([VM] 1.3) ----
+    ax = (sum_fx - fd) / m  # body-frame CoG acceleration
+    ay = sum_fy / m
+    psi = x[_PSI]
+    cpsi = math.cos(psi)
+    spsi = math.sin(psi)
+    dx[_X] = vx * cpsi - vy * spsi  # [VM] 1.1
+    dx[_Y] = vx * spsi + vy * cpsi
+    dx[_PSI] = r
+    dx[_VX] = ax + r * vy
+    dx[_VY] = ay - r * vx
+    dx[_R] = mz / p[_IZ]
+
+    # ---- sprung body ([VM] 1.4, module docstring item 2) ----
+    hroll = p[_HROLL]
+    hs = p[_HS]
+    dx[_Z] = zd
+    dx[_ZD] = (f_heave + lift_f + lift_r) / ms
+    dx[_PHI] = phid
+    dx[_PHID] = (ms * hroll * (ay + g * math.sin(phi)) + m_roll_susp) / p[_IROLL]
+    dx[_TH] = thd
+    dx[_THD] = (
+        -ms * hs * ax - fd * p[_HD] + ms * g * hs * math.sin(th) - m_pitch_susp
+        - lf * lift_f + lr * lift_r
+    ) / p[_IPITCH]
+
+    # ---- acceleration filter ([VM] 1.5) ----
+    tau = p[_TAUA]
+    dx[_AXF] = (ax - axf) / tau
+    dx[_AYF] = (ay - ayf) / tau
+
+
+@njit(**_JIT)
+def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
+    """One classical RK4 step of :func:`rhs_kernel`, input held: writes ``x(t + dt)`` into ``out``.
+
+    ``work`` is a float64[5, 22] scratch array and ``diag`` a float64[4, 6] one (left holding
+    the diagnostics of the last stage). ``out`` may be ``x`` itself.
+    """
+    n = x.shape[0]
+    k1 = work[0]
+    k2 = work[1]
+    k3 = work[2]
+    k4 = work[3]
+    xt = work[4]
+    rhs_kernel(x, u, p, tpf, tpr, k1, diag)
+    h2 = 0.5 * dt
+    for i in range(n):
+        xt[i] = x[i] + h2 * k1[i]
+    rhs_kernel(xt, u, p, tpf, tpr, k2, diag)
+    for i in range(n):
+        xt[i] = x[i] + h2 * k2[i]
+    rhs_kernel(xt, u, p, tpf, tpr, k3, diag)
+    for i in range(n):
+        xt[i] = x[i] + dt * k3[i]
+    rhs_kernel(xt, u, p, tpf, tpr, k4, diag)
+    h6 = dt / 6.0
+    for i in range(n):
+        out[i] = x[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+
+
+@njit(**_JIT)
+def simulate_kernel(x0, us, dt, p, tpf, tpr, xs):
+    """Fixed-step RK4 over the input sequence ``us`` (n, 6), writing states into ``xs`` (n+1, 22).
+
+    ``xs[0] = x0``; the input ``us[k]`` is held over step k. Returns the number of steps done:
+    ``n`` on success, fewer if a state became non-finite (that step's row is written, the
+    remaining rows are left untouched).
+    """
+    n = us.shape[0]
+    nx = x0.shape[0]
+    work = np.empty((5, nx))
+    diag = np.empty((4, NDIAG))
+    for i in range(nx):
+        xs[0, i] = x0[i]
+    for k in range(n):
+        rk4_step_kernel(xs[k], us[k], dt, p, tpf, tpr, xs[k + 1], work, diag)
+        for i in range(nx):
+            if not math.isfinite(xs[k + 1, i]):
+                return k
+    return n
+
+
+@njit(**_JIT)
+def _diag_many(xs, us, p, tpf, tpr, out):
+    dx = np.empty(xs.shape[1])
+    for k in range(xs.shape[0]):
+        rhs_kernel(xs[k], us[k], p, tpf, tpr, dx, out[k])
+
+
+@njit(**_JIT)
+def _rhs_many(xs, us, p, tpf, tpr, out):
+    diag = np.empty((4, NDIAG))
+    for k in range(xs.shape[0]):
+        rhs_kernel(xs[k], us[k], p, tpf, tpr, out[k], diag)
+
+
+# --------------------------------------------------------------------------------------------
+# Python layer
+# --------------------------------------------------------------------------------------------
+def _as_state(x) -> np.ndarray:
+    a = np.asarray(x, dtype=np.float64)
+    if a.shape != (NX,):
+        raise ValueError(f"x has shape {a.shape}: expected ({NX},) (TenDoFState layout)")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"x = {a.tolist()}: must be finite")
+    return np.ascontiguousarray(a)
+
+
+def _check_inputs(u, shape_what: str) -> np.ndarray:
+    a = np.ascontiguousarray(np.asarray(u, dtype=np.float64))
+    if a.shape[-1:] != (NU,):
+        raise ValueError(
+            f"{shape_what} has shape {a.shape}: expected last axis {NU} = "
+            "[tw (N m), delta (rad), mu_fl, mu_fr, mu_rl, mu_rr (-)] (TenDoFInput; "
+            "build it with TenDoF.inputs)"
+        )
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{shape_what}: all inputs must be finite [N m, rad, -]")
+    if np.any(a[..., _MU:] <= 0.0):
+        bad = float(a[..., _MU:][a[..., _MU:] <= 0.0].ravel()[0])
+        raise ValueError(f"{shape_what}: road friction scale mu = {bad!r} (-): must be > 0")
+    return a
+
+
+class TenDoF:
+    """The 10DoF validation model of a car (module docstring): a thin shell over the kernels.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The car, e.g. ``flatfree.vehicles.load_vehicle("peugeot406")``. Both tyres need a
+        ``relaxation_length_x > 0``.
+    options : TenDoFOptions, optional
+        Modelling choices and low-speed regularisation (defaults documented there).
+
+    Attributes
+    ----------
+    vehicle, options : the inputs.
+    params : ndarray
+        The :class:`MP` array of the kernels.
+    tire_front, tire_rear : ndarray
+        ``TireParams.to_array()`` of the front and rear tyres.
+
+    Examples
+    --------
+    >>> from flatfree.vehicles import load_vehicle
+    >>> model = TenDoF(load_vehicle("peugeot406"))
+    >>> x0 = model.initial_state(vx=20.0)
+    >>> u = model.inputs(tw=0.0, delta=0.02, n=2000)          # 2 s at 1 ms
+    >>> xs = model.simulate(x0, u, dt=1e-3)                   # shape (2001, 22)
+
+    References
+    ----------
+    [VM] shared/reference/VEHICLE_MODEL.md sections 1, 3, 5.
+    """
+
+    State = TenDoFState
+    Input = TenDoFInput
+
+    def __init__(self, vehicle: VehicleParams, options: TenDoFOptions | None = None) -> None:
+        if not isinstance(vehicle, VehicleParams):
+            raise ValueError(f"vehicle = {vehicle!r}: expected a VehicleParams (load_vehicle)")
+        opts = TenDoFOptions() if options is None else options
+        if not isinstance(opts, TenDoFOptions):
+            raise ValueError(f"options = {opts!r}: expected a TenDoFOptions")
+        for side in ("tire_front", "tire_rear"):
+            sig = getattr(vehicle, side).relaxation_length_x
+            if not sig > 0.0:
+                raise ValueError(
+                    f"{side}.relaxation_length_x = {sig!r} m: the 10DoF model's relaxed "
+                    "longitudinal slip needs a relaxation length > 0"
+                )
+        self.vehicle = vehicle
+        self.options = opts
+        self.params = _build_params(vehicle, opts)
+        self.tire_front = vehicle.tire_front.to_array()
+        self.tire_rear = vehicle.tire_rear.to_array()
+
+    # ----- helpers -----
+    def __repr__(self) -> str:
+        return f"TenDoF({self.vehicle.name!r}, {self.options!r})"
+
+    def initial_state(
+        self, vx: float = 0.0, *, vy: float = 0.0, r: float = 0.0, x: float = 0.0,
+        y: float = 0.0, psi: float = 0.0,
+    ) -> np.ndarray:
+        """A state at rest in the suspension, wheels free-rolling (``Omega R_e = v_x,ij``).
+
+        Heave, roll, pitch and their rates, the relaxed slips and the filtered accelerations
+        are 0 (static equilibrium of the suspension at zero acceleration).
+        """
+        s = np.zeros(NX)
+        s[_X] = finite("x", x, "m")
+        s[_Y] = finite("y", y, "m")
+        s[_PSI] = finite("psi", psi, "rad")
+        s[_VX] = finite("vx", vx, "m/s")
+        s[_VY] = finite("vy", vy, "m/s")
+        s[_R] = finite("r", r, "rad/s")
+        p = self.params
+        for w in Wheel:
+            yj = (0.5 if w % 2 == 0 else -0.5) * (p[_TF] if w < 2 else p[_TR])
+            s[_OM + w] = (s[_VX] - s[_R] * yj) / p[_RE]
+        return s
+
+    @staticmethod
+    def inputs(tw, delta, mu=1.0, *, mu_wheels=None, n: int | None = None) -> np.ndarray:
+        """Build an input array in the :class:`TenDoFInput` layout.
+
+        Parameters
+        ----------
+        tw : float or array_like (n,)
+            Total wheel torque [N m] (> 0 drive, < 0 brake).
+        delta : float or array_like (n,)
+            Front road-wheel steer angle [rad].
+        mu : float or array_like (n,)
+            Road friction scale [-] under all four wheels (ignored when ``mu_wheels`` is
+            given).
+        mu_wheels : array_like (4,) or (n, 4), optional
+            Road friction scale [-] per wheel, :class:`Wheel` order (a split-mu road, a wet
+            patch under one side).
+        n : int, optional
+            Number of steps. If None it is taken from the array arguments, and a single
+            input of shape (6,) is returned when all of them are scalars (or ``mu_wheels``
+            has shape (4,)).
+
+        Returns
+        -------
+        ndarray, shape (6,) or (n, 6)
+
+        Raises
+        ------
+        ValueError
+            Inconsistent lengths, a non-finite value or a friction scale <= 0.
+        """
+        tw_a = np.asarray(tw, dtype=np.float64)
+        de_a = np.asarray(delta, dtype=np.float64)
+        if mu_wheels is None:
+            mu_a = np.asarray(mu, dtype=np.float64)
+            if mu_a.ndim > 1:
+                raise ValueError(f"mu has shape {mu_a.shape}: expected a scalar or (n,); "
+                                 "use mu_wheels for one value per wheel")
+            mu_a = mu_a[..., None] * np.ones(4)
+        else:
+            mu_a = np.asarray(mu_wheels, dtype=np.float64)
+            if mu_a.ndim not in (1, 2) or mu_a.shape[-1] != 4:
+                raise ValueError(f"mu_wheels has shape {mu_a.shape}: expected (4,) or (n, 4)")
+        for name, a in (("tw", tw_a), ("delta", de_a)):
+            if a.ndim > 1:
+                raise ValueError(f"{name} has shape {a.shape}: expected a scalar or (n,)")
+        lengths = {a.shape[0] for a in (tw_a, de_a) if a.ndim == 1}
+        if mu_a.ndim == 2:
+            lengths.add(mu_a.shape[0])
+        if n is not None:
+            lengths.add(int(n))
+        if len(lengths) > 1:
+            raise ValueError(f"inputs: inconsistent lengths {sorted(lengths)}")
+        shape = (NU,) if not lengths else (lengths.pop(), NU)
+        out = np.empty(shape)
+        out[..., _TW] = tw_a
+        out[..., _DELTA] = de_a
+        out[..., _MU:] = mu_a
+        return _check_inputs(out, "u")
+
+    # ----- dynamics -----
+    def rhs(self, x, u) -> np.ndarray:
+        """Time derivative of the state ``x`` (22,) under the input ``u`` (6,)."""
+        xa = _as_state(x)
+        ua = _check_inputs(u, "u")
+        if ua.shape != (NU,):
+            raise ValueError(f"u has shape {ua.shape}: expected ({NU},)")
+        dx = np.empty(NX)
+        rhs_kernel(xa, ua, self.params, self.tire_front, self.tire_rear, dx,
+                   np.empty((4, NDIAG)))
+        return dx
+
+    def ivp_rhs(self, u) -> Callable[[float, np.ndarray], np.ndarray]:
+        """A ``fun(t, x)`` for ``scipy.integrate.solve_ivp`` over the compiled right-hand side.
+
+        Parameters
+        ----------
+        u : array_like (6,) or callable
+            A constant input, or ``u(t) -> array (6,)`` (e.g. a zero-order hold of a sampled
+            sequence). The input is not validated at every call when callable.
+
+        Returns
+        -------
+        callable ``fun(t, x) -> dx`` (new arrays; ``x`` of shape (22,)).
+        """
+        p, tpf, tpr = self.params, self.tire_front, self.tire_rear
+        diag = np.empty((4, NDIAG))
+        if callable(u):
+            def fun(t: float, x: np.ndarray) -> np.ndarray:
+                dx = np.empty(NX)
+                ut = np.ascontiguousarray(u(t), dtype=np.float64)
+                rhs_kernel(np.ascontiguousarray(x, dtype=np.float64), ut, p, tpf, tpr, dx, diag)
+                return dx
+        else:
+            uc = _check_inputs(u, "u")
+            if uc.shape != (NU,):
+                raise ValueError(f"u has shape {uc.shape}: expected ({NU},) or a callable")
+
+            def fun(t: float, x: np.ndarray) -> np.ndarray:
+                dx = np.empty(NX)
+                rhs_kernel(np.ascontiguousarray(x, dtype=np.float64), uc, p, tpf, tpr, dx, diag)
+                return dx
+        return fun
+
+    def step(self, x, u, dt: float = 1e-3) -> np.ndarray:
+        """One RK4 step of length ``dt`` [s] with the input ``u`` (6,) held: the new state."""
+        xa = _as_state(x)
+        ua = _check_inputs(u, "u")
+        if ua.shape != (NU,):
+            raise ValueError(f"u has shape {ua.shape}: expected ({NU},)")
+        h = positive("dt", dt, "s")
+        out = np.empty(NX)
+        rk4_step_kernel(xa, ua, h, self.params, self.tire_front, self.tire_rear, out,
+                        np.empty((5, NX)), np.empty((4, NDIAG)))
+        return out
+
+    def simulate(self, x0, u, dt: float = 1e-3, *, out: np.ndarray | None = None) -> np.ndarray:
+        """Integrate with the compiled fixed-step RK4, input ``u[k]`` held over step k.
+
+        Parameters
+        ----------
+        x0 : array_like (22,)
+            Initial state (:meth:`initial_state`).
+        u : array_like (n, 6)
+            Inputs per step (:meth:`inputs`).
+        dt : float
+            Step [s], > 0 (default 1 ms; see the module docstring for stable steps).
+        out : ndarray (n + 1, 22), optional
+            Preallocated C-contiguous float64 output (reused between runs).
+
+        Returns
+        -------
+        ndarray (n + 1, 22): the states at ``t = k dt``.
+
+        Raises
+        ------
+        ValueError
+            Bad arguments, or a state became non-finite (the message gives the time).
+        """
+        xa = _as_state(x0)
+        ua = _check_inputs(u, "u")
+        if ua.ndim != 2:
+            raise ValueError(f"u has shape {ua.shape}: expected (n, {NU})")
+        h = positive("dt", dt, "s")
+        n = ua.shape[0]
+        if out is None:
+            xs = np.empty((n + 1, NX))
+        else:
+            xs = out
+            if (xs.shape != (n + 1, NX) or xs.dtype != np.float64
+                    or not xs.flags.c_contiguous):
+                raise ValueError(
+                    f"out has shape {xs.shape} and dtype {xs.dtype}: expected a C-contiguous "
+                    f"float64 array of shape {(n + 1, NX)}"
+                )
+        n_ok = simulate_kernel(xa, ua, h, self.params, self.tire_front, self.tire_rear, xs)
+        if n_ok < n:
+            raise ValueError(
+                f"the state became non-finite at t = {(n_ok + 1) * h!r} s (step {n_ok + 1} "
+                f"of {n}); dt = {h!r} s may be outside the stable range (stable_step)"
+            )
+        return xs
+
+    def diagnostics(self, x, u) -> dict[str, np.ndarray]:
+        """Per-wheel loads, forces and slips for a state and input, or for trajectories.
+
+        Parameters
+        ----------
+        x : array_like (22,) or (n, 22)
+        u : array_like (6,) or (n, 6)
+
+        Returns
+        -------
+        dict of arrays of shape (4,) or (n, 4), :class:`Wheel` order, with keys
+        ``fz`` [N] vertical load, ``fx``, ``fy`` [N] tyre forces in wheel axes, ``alpha``
+        [rad] slip angle, ``kappa`` [-] the slip seen by the tyre (relaxed, with carcass
+        damping), ``kappa_plain`` [-] the instantaneous slip ratio; and ``ax``, ``ay``
+        [m/s^2] (shape () or (n,)) the body-frame CoG accelerations. The effective
+        cornering stiffness of an axle (the paper's Figure 3) is
+        ``-(fy[fl] + fy[fr]) / mean(alpha[fl], alpha[fr])`` (ISO sign).
+        """
+        xa = np.ascontiguousarray(np.asarray(x, dtype=np.float64))
+        ua = _check_inputs(u, "u")
+        single = xa.ndim == 1
+        xs = xa[None, :] if single else xa
+        us = ua[None, :] if ua.ndim == 1 else ua
+        if xs.ndim != 2 or xs.shape[1] != NX or us.shape[0] != xs.shape[0]:
+            raise ValueError(
+                f"x has shape {xa.shape} and u {ua.shape}: expected (22,) and (6,), or "
+                "(n, 22) and (n, 6)"
+            )
+        if not np.all(np.isfinite(xs)):
+            raise ValueError("x: states must be finite")
+        d = np.empty((xs.shape[0], 4, NDIAG))
+        _diag_many(xs, us, self.params, self.tire_front, self.tire_rear, d)
+        dxs = np.empty_like(xs)
+        _rhs_many(xs, us, self.params, self.tire_front, self.tire_rear, dxs)
+        res = {name: d[:, :, i] for i, name in enumerate(DIAG_FIELDS)}
+        res["ax"] = dxs[:, _VX] - xs[:, _R] * xs[:, _VY]
+        res["ay"] = dxs[:, _VY] + xs[:, _R] * xs[:, _VX]
+        if single:
+            res = {k: v[0] for k, v in res.items()}
+        return res
+
+    def jacobian(self, x, u, *, rel_step: float = 1e-6) -> np.ndarray:
+        """Central finite-difference Jacobian d(rhs)/dx (22, 22) at ``(x, u)``."""
+        xa = _as_state(x)
+        ua = _check_inputs(u, "u")
+        jac = np.empty((NX, NX))
+        fp = np.empty(NX)
+        fm = np.empty(NX)
+        diag = np.empty((4, NDIAG))
+        for i in range(NX):
+            h = rel_step * max(1.0, abs(xa[i]))
+            xp = xa.copy()
+            xp[i] += h
+            xm = xa.copy()
+            xm[i] -= h
+            rhs_kernel(xp, ua, self.params, self.tire_front, self.tire_rear, fp, diag)
+            rhs_kernel(xm, ua, self.params, self.tire_front, self.tire_rear, fm, diag)
+            jac[:, i] = (fp - fm) / (2.0 * h)
+        return jac
+
+
+def _build_params(vp: VehicleParams, opts: TenDoFOptions) -> np.ndarray:
+    """The :class:`MP` array of derived constants (module docstring, items 2-6)."""
+    p = np.zeros(len(MP))
+    m = vp.mass
+    m_s = vp.sprung_mass
+    m_u = m - m_s
+    wb = vp.wheelbase
+    h_u = vp.wheel_radius  # unsprung CoG at the wheel centre [estimate]
+    h_s = (m * vp.cog_height - m_u * h_u) / m_s  # m h = m_s h_s + m_u h_u
+    if not h_s > 0.0:
+        raise ValueError(
+            f"sprung CoG height h_s = {h_s!r} m (from m h = m_s h_s + m_u R_e): must be > 0"
+        )
+    h_rc = (vp.roll_center_height_front * vp.lr + vp.roll_center_height_rear * vp.lf) / wb
+    h_roll = h_s - h_rc
+    rho = vp.air_density
+    fz0_f = 0.5 * m * G * vp.lr / wb  # [VM] 1.5 static load per wheel
+    fz0_r = 0.5 * m * G * vp.lf / wb
+    p[_M] = m
+    p[_MS] = m_s
+    p[_MUA] = 0.5 * m_u  # [assumption] unsprung mass split equally between the axles
+    p[_LF] = vp.lf
+    p[_LR] = vp.lr
+    p[_L] = wb
+    p[_TF] = vp.track_front
+    p[_TR] = vp.track_rear
+    p[_HS] = h_s
+    p[_HROLL] = h_roll
+    p[_HRCF] = vp.roll_center_height_front
+    p[_HRCR] = vp.roll_center_height_rear
+    p[_IZ] = vp.iz
+    p[_IROLL] = vp.ix_s + m_s * h_roll * h_roll  # about the roll axis
+    p[_IPITCH] = vp.iy_s + m_s * h_s * h_s  # about the ground-level pitch axis
+    p[_KF] = vp.spring_front
+    p[_KR] = vp.spring_rear
+    p[_CF] = vp.damper_front
+    p[_CR] = vp.damper_rear
+    p[_ARBF] = vp.arb_front
+    p[_ARBR] = vp.arb_rear
+    p[_RE] = vp.wheel_radius
+    p[_IWF] = vp.wheel_inertia_front
+    p[_IWR] = vp.wheel_inertia_rear
+    p[_DRVF] = 1.0 if vp.drive == "front" else 0.0
+    p[_BRKF] = vp.brake_balance_front
+    p[_FR] = vp.rolling_resistance
+    p[_DRAG] = 0.5 * rho * vp.drag_area
+    p[_LIFTF] = 0.5 * rho * vp.lift_area_front
+    p[_LIFTR] = 0.5 * rho * vp.lift_area_rear
+    p[_HD] = vp.drag_height
+    p[_FZ0F] = fz0_f
+    p[_FZ0R] = fz0_r
+    p[_G] = G
+    p[_SIGF] = vp.tire_front.relaxation_length_x
+    p[_SIGR] = vp.tire_rear.relaxation_length_x
+    for tire, fz0, iw, sig, idx in (
+        (vp.tire_front, fz0_f, vp.wheel_inertia_front, p[_SIGF], _TDF),
+        (vp.tire_rear, fz0_r, vp.wheel_inertia_rear, p[_SIGR], _TDR),
+    ):
+        c_kappa = slip_stiffness(tire, fz0)
+        omega_n = math.sqrt(vp.wheel_radius**2 * c_kappa / (iw * sig))  # module doc, item 5
+        p[idx] = 2.0 * opts.carcass_damping_ratio / omega_n
+    p[_VMIN] = opts.v_min_lat
+    p[_TAUB] = opts.brake_time_constant
+    p[_SGN0] = opts.sign_speed
+    p[_TAUA] = opts.accel_filter_time
+    p[_ACK] = 1.0 if opts.ackermann else 0.0
+    p[_HU] = h_u
+    return p
+
+
+def stable_step(model: TenDoF, x, u) -> tuple[float, float]:
+    """Largest RK4 step for the model linearised at ``(x, u)``, and the spectral radius.
+
+    Every eigenvalue ``lambda`` of the finite-difference Jacobian must satisfy
+    ``|R(lambda dt)| <= 1`` with the RK4 stability polynomial ``R(z) = 1 + z + z^2/2 + z^3/6 +
+    z^4/24`` ([HW] IV.2); the step is found by bisection on that condition. Eigenvalues with
+    positive real part (a physically unstable mode, e.g. roll-over) are skipped.
+
+    Returns
+    -------
+    (dt_max [s], max |lambda| [1/s])
+    """
+    lam = np.linalg.eigvals(model.jacobian(x, u))
+    lam = lam[(np.abs(lam) > 1e-9) & (lam.real <= 1e-9)]
+    if lam.size == 0:
+        return math.inf, 0.0
+
+    def ok(dt: float) -> bool:
+        z = lam * dt
+        r = 1.0 + z + z**2 / 2.0 + z**3 / 6.0 + z**4 / 24.0
+        return bool(np.all(np.abs(r) <= 1.0 + 1e-12))
+
+    lo, hi = 0.0, 3.0 / float(np.max(np.abs(lam)))
+    while ok(hi):
+        lo, hi = hi, 2.0 * hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo, float(np.max(np.abs(lam)))
