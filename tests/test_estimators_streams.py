@@ -1,0 +1,275 @@
+"""Batch and streaming estimators: one implementation, start-up, non-finite samples, the
+compiled-loop form, the one-call entry point and the standard accuracy test (issue 3)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numba import njit
+
+from flatfree.estimators import (
+    FEstimator,
+    JacobiDesign,
+    Stream,
+    causal_filter,
+    derivative_weights,
+    differentiate,
+    estimate_f,
+    f_estimator_weights,
+    f_update,
+    fir_new,
+    fir_update,
+)
+
+DESIGNS = [
+    JacobiDesign(n=50, dt=1e-3),  # the paper's derivative, 50 taps
+    JacobiDesign(n=80, dt=1e-3, N=2, kappa=1.0, lag=0.0),  # delay-free
+    JacobiDesign(n=40, dt=1e-3, order=2, N=1),  # second derivative, low delay
+    JacobiDesign(n=30, dt=1e-3, order=0, N=1, lag=0.0),  # the corrected denoiser
+]
+
+
+def _signal(m=2500, seed=3):
+    rng = np.random.default_rng(seed)
+    t = np.arange(m) * 1e-3
+    return t, np.sin(3 * t) + 0.05 * np.cumsum(rng.standard_normal(m)) * 0.1
+
+
+def _scale(w, y):
+    """Rounding scale of a FIR output: sum |w| * max |y| (one product per tap)."""
+    return np.abs(w).sum() * np.abs(y).max()
+
+
+@pytest.mark.parametrize("design", DESIGNS)
+@pytest.mark.parametrize("startup", ["prefill", "shrink"])
+def test_batch_equals_streaming_and_reset_restores(design, startup):
+    _, y = _signal()
+    s = Stream(design, startup=startup)
+    a = np.array([s.update(v) for v in y])
+    b = causal_filter(design, y, startup=startup)
+    # the two doors sum the same products in a different order: 1e-12 of the rounding scale
+    # (covers the shrink start-up, whose short windows have large weights)
+    tol = 1e-12 * max(_scale(design.weights, y), 1.0) * (1e3 if startup == "shrink" else 1.0)
+    assert np.abs(a - b).max() <= tol
+    assert np.abs(a[design.n:] - b[design.n:]).max() <= 1e-12 * _scale(design.weights, y)
+    s.reset()
+    c = s.update_many(y)
+    np.testing.assert_array_equal(a, c)  # reset -> bitwise the initial behaviour
+
+
+@pytest.mark.parametrize("nu", [1, 2])
+@pytest.mark.parametrize("startup", ["prefill", "shrink"])
+def test_f_estimator_batch_equals_streaming(nu, startup):
+    rng = np.random.default_rng(11)
+    _, y = _signal(1500)
+    u = rng.normal(size=y.size)
+    fe = FEstimator(nu, 25, 1e-3, 2.5, startup=startup)
+    a = np.array([fe.update(y[k], u[k - 1] if k else 0.7) for k in range(y.size)])
+    b = estimate_f(y, u, nu=nu, n=25, dt=1e-3, alpha=2.5, u_before=0.7, startup=startup)
+    wy, wu = f_estimator_weights(nu, 25, 1e-3)
+    tol = 1e-12 * (_scale(wy, y) + 2.5 * _scale(wu, u)) * (1e3 if startup == "shrink" else 1)
+    assert np.abs(a - b).max() <= tol
+    fe.reset()
+    a2 = np.array([fe.update(y[k], u[k - 1] if k else 0.7) for k in range(y.size)])
+    np.testing.assert_array_equal(a, a2)
+
+
+def test_prefill_start_is_at_rest():
+    d = DESIGNS[0]
+    s = Stream(d)
+    assert s.update(4.2) == pytest.approx(0.0, abs=1e-12 * _scale(d.weights, [4.2]))
+    den = Stream(DESIGNS[3])
+    assert den.update(4.2) == pytest.approx(4.2, rel=1e-12)
+    # F estimator: at rest (y constant) under u_prev, the ultra-local model gives F = -alpha u
+    fe = FEstimator(2, 20, 1e-3, 3.0)
+    assert fe.update(1.0, 0.5) == pytest.approx(-1.5, rel=1e-9)
+
+
+@pytest.mark.parametrize("design", DESIGNS[:2])
+def test_shrink_start_is_exact_on_ramps_from_two_samples(design):
+    t = np.arange(200) * 1e-3
+    y = 0.7 - 1.9 * t
+    out = causal_filter(design, y, startup="shrink")
+    assert out[0] == 0.0  # one sample: no derivative determined
+    # every shorter window is an exact design on ramps; tolerance: rounding of weights ~1/dt
+    np.testing.assert_allclose(out[1:], -1.9, atol=1e-9)
+
+
+@pytest.mark.parametrize("nu", [1, 2])
+def test_f_estimator_shrink_start_is_exact_after_nu_plus_one_samples(nu):
+    rng = np.random.default_rng(5)
+    dt, F, alpha = 1e-2, 0.9, 1.7
+    u = rng.normal(size=60)
+    y = np.empty(60)
+    y[0], v = 0.3, -0.4
+    for m in range(59):  # exact ZOH simulation of y^(nu) = F + alpha u
+        acc = F + alpha * u[m]
+        y[m + 1] = y[m] + (acc * dt if nu == 1 else v * dt + 0.5 * acc * dt * dt)
+        v += acc * dt
+    out = estimate_f(y, u, nu=nu, n=30, dt=dt, alpha=alpha, startup="shrink")
+    # rounding floor ~ eps |y| / dt^nu for the shortest windows: 1e-9 relative covers it at 10 ms
+    np.testing.assert_allclose(out[nu:], F, rtol=1e-9)
+
+
+def test_nonfinite_policies():
+    d = DESIGNS[0]
+    _, y = _signal(300)
+    bad = y.copy()
+    bad[120] = np.nan
+    with pytest.raises(ValueError, match=r"y\[120\] = nan"):
+        causal_filter(d, bad)
+    s = Stream(d)
+    for v in bad[:120]:
+        s.update(v)
+    with pytest.raises(ValueError, match="sample = nan"):
+        s.update(bad[120])
+    # hold: the NaN is replaced by the previous sample, in both doors
+    held = y.copy()
+    held[120] = held[119]
+    ref = causal_filter(d, held)
+    out = causal_filter(d, bad, nonfinite="hold")
+    np.testing.assert_array_equal(out, ref)
+    s = Stream(d, nonfinite="hold")
+    st = np.array([s.update(v) for v in bad])
+    assert np.abs(st - ref).max() <= 1e-12 * _scale(d.weights, y)
+    assert np.all(np.isfinite(st))
+    with pytest.raises(ValueError, match=r"y\[0\] = inf"):
+        causal_filter(d, np.r_[np.inf, y], nonfinite="hold")
+    with pytest.raises(ValueError, match="non-finite"):
+        Stream(d, nonfinite="hold").update(np.nan)
+    with pytest.raises(ValueError, match="nonfinite = 'skip'"):
+        Stream(d, nonfinite="skip")
+
+
+def test_timestamps_and_window_validation():
+    d = DESIGNS[0]
+    t, y = _signal(100)
+    tt = t.copy()
+    tt[40:] += 2e-4
+    with pytest.raises(ValueError, match=r"t\[40\] - t\[39\] = 0\.001(2|19)"):
+        causal_filter(d, y, t=tt)
+    np.testing.assert_array_equal(causal_filter(d, y, t=t), causal_filter(d, y))
+    with pytest.raises(ValueError, match=r"non-uniform"):
+        differentiate(y, tt, bandwidth_hz=2.0, noise_std=0.01)
+    with pytest.raises(ValueError, match="dt = 0"):
+        differentiate(y, 0, bandwidth_hz=2.0, noise_std=0.01)
+    with pytest.raises(ValueError, match="n = 1"):
+        FEstimator(1, 1, 1e-3, 1.0)
+    with pytest.raises(ValueError, match='startup = "shrink" is limited'):
+        Stream(JacobiDesign(n=3000, dt=1e-3), startup="shrink")
+
+
+@njit  # no on-disk cache: a cached caller would not notice a changed fir_update
+def _compiled_loop(ks, y, out):
+    for k in range(y.size):
+        out[k] = fir_update(ks, y[k])
+
+
+@njit
+def _compiled_f_loop(ks_y, ks_u, alpha, y, u, out):
+    for k in range(y.size):
+        out[k] = f_update(ks_y, ks_u, alpha, y[k], u[k - 1] if k > 0 else 0.0)
+
+
+def test_compiled_loop_form_matches_the_object():
+    d = DESIGNS[1]
+    _, y = _signal(500)
+    s = Stream(d)
+    ref = s.update_many(y)
+    s.reset()
+    out = np.empty(y.size)
+    _compiled_loop(s.state, y, out)
+    np.testing.assert_array_equal(out, ref)  # same compiled function, same state: bitwise
+    # a kernel state built directly from weights behaves the same
+    ks = fir_new(d.weights)
+    out2 = np.empty(y.size)
+    _compiled_loop(ks, y, out2)
+    np.testing.assert_array_equal(out2, ref)
+    fe = FEstimator(1, 20, 1e-3, 2.0)
+    u = np.cos(np.arange(y.size) * 0.01)
+    out = np.empty(y.size)
+    _compiled_f_loop(fe.state_y, fe.state_u, 2.0, y, u, out)
+    ref = estimate_f(y, u, nu=1, n=20, dt=1e-3, alpha=2.0)
+    wy, wu = f_estimator_weights(1, 20, 1e-3)
+    assert np.abs(out - ref).max() <= 1e-12 * (_scale(wy, y) + 2.0 * _scale(wu, u))
+    with pytest.raises(ValueError, match="non-finite"):
+        fir_update(ks, np.nan)  # the compiled core refuses too (policy "raise")
+
+
+def test_differentiate_exact_on_polynomials_after_the_window():
+    t = np.arange(3000) * 1e-3
+    y = 1.0 + 0.5 * t - 2.0 * t**2
+    est, d = differentiate(y, 1e-3, bandwidth_hz=2.0, noise_std=1e-3, order=2,
+                           return_design=True)
+    assert est.shape == y.shape
+    assert d.order == 2 and d.degree >= 2
+    # after the start-up window the design is exact on parabolas; rounding ~ eps |y| / dt^2 /n^2
+    np.testing.assert_allclose(est[d.n:], -4.0, atol=1e-6)
+
+
+# ---------------------------------------------------------------------------------------------
+# the standard accuracy test of issue 3 (loose regression bounds; the numbers live in
+# benchmarks/bench_estimators.py)
+# ---------------------------------------------------------------------------------------------
+def _standard_signal():
+    dt = 1e-3
+    t = np.arange(60_000) * dt
+    y = np.sin(2 * np.pi * 0.5 * t) + 0.3 * np.sin(2 * np.pi * 2 * t)
+    dy = np.pi * np.cos(2 * np.pi * 0.5 * t) + 0.3 * 4 * np.pi * np.cos(2 * np.pi * 2 * t)
+    y = y + 0.01 * np.random.default_rng(0).standard_normal(t.size)
+    return t, y, dy
+
+
+def _xcorr_delay(est, dy, dt, max_lag=50):
+    """Measured delay: the shift (s) of the truth that best matches the estimate (least RMS),
+    refined by a parabola through the three best integer shifts."""
+    lags = np.arange(-max_lag, max_lag + 1)
+    core = slice(1000 + max_lag, est.size - max_lag)
+    r = np.array([np.mean((est[core] - np.roll(dy, L)[core]) ** 2) for L in lags])
+    k = int(np.argmin(r))
+    k = min(max(k, 1), lags.size - 2)
+    den = r[k - 1] - 2 * r[k] + r[k + 1]
+    return (lags[k] + 0.5 * (r[k - 1] - r[k + 1]) / den) * dt
+
+
+def test_standard_accuracy_regression():
+    t, y, dy = _standard_signal()
+    est, d = differentiate(y, 1e-3, bandwidth_hz=2.0, noise_std=0.01, return_design=True)
+    m = t >= 1.0
+    rms = math.sqrt(np.mean((est[m] - dy[m]) ** 2))
+    # target of issue 3: RMS <= 0.25 and delay <= 5 ms (measured 2026-11-22: 0.150, 5 ms nominal)
+    assert rms <= 0.25
+    assert d.delay <= 0.005 + 1e-12
+    assert abs(_xcorr_delay(est, dy, 1e-3)) <= 0.005
+    # the paper's own kernel at T = 50 ms reproduces the issue's reference (0.853, 25 ms)
+    w = derivative_weights(51, 1e-3)
+    est_p = causal_filter(w, y)
+    assert math.sqrt(np.mean((est_p[m] - dy[m]) ** 2)) == pytest.approx(0.853, abs=0.001)
+    assert _xcorr_delay(est_p, dy, 1e-3) == pytest.approx(0.025, abs=0.001)
+
+
+def test_f_estimator_refuses_nonfinite_with_the_value():
+    fe = FEstimator(1, 10, 1e-3, 1.0)
+    fe.update(0.0, 0.0)
+    with pytest.raises(ValueError, match="u_prev = inf"):
+        fe.update(0.1, math.inf)
+    with pytest.raises(ValueError, match=r"u\[3\] = nan"):
+        estimate_f(np.zeros(6), np.array([0, 0, 1.0, np.nan, 0, 0]), nu=1, n=3, dt=1e-3,
+                   alpha=1.0)
+
+
+def test_f_estimator_hold_policy_batch_equals_streaming():
+    rng = np.random.default_rng(2)
+    y = np.cumsum(rng.normal(size=200)) * 1e-3
+    u = rng.normal(size=200)
+    y[50] = np.nan
+    u[0] = np.nan  # held from u_before
+    u[120] = np.inf
+    fe = FEstimator(2, 15, 1e-3, 1.5, nonfinite="hold")
+    a = np.array([fe.update(y[k], u[k - 1] if k else 0.3) for k in range(200)])
+    b = estimate_f(y, u, nu=2, n=15, dt=1e-3, alpha=1.5, u_before=0.3, nonfinite="hold")
+    assert np.all(np.isfinite(a))
+    wy, wu = f_estimator_weights(2, 15, 1e-3)
+    assert np.abs(a - b).max() <= 1e-12 * (_scale(wy, np.nan_to_num(y)) + 1.5 * _scale(wu, [5.0]))
