@@ -1,1 +1,34 @@
-"""Controllers: flatness-based (the paper's Section 2) and model-free (Section 3)."""
+"""Controllers: flatness-based (the paper's Section 2) and model-free (Section 3).
+
+- :mod:`flatfree.controllers.flatness`: flat outputs, the maps A and B, the singular speed;
+- :mod:`flatfree.controllers.intelligent`: the ultra-local model and iP / iPI / iPD / iPID;
+- :mod:`flatfree.controllers.vehicle`: the paper's model-free vehicle designs.
+"""
+
+from flatfree.controllers.intelligent import (
+    IP,
+    IPD,
+    IPI,
+    IPID,
+    IntelligentController,
+    IntelligentParams,
+    IntelligentStatus,
+    error_dynamics_gains,
+    intelligent_reset,
+    intelligent_step,
+    make_state,
+)
+
+__all__ = [
+    "IP",
+    "IPD",
+    "IPI",
+    "IPID",
+    "IntelligentController",
+    "IntelligentParams",
+    "IntelligentStatus",
+    "error_dynamics_gains",
+    "intelligent_reset",
+    "intelligent_step",
+    "make_state",
+]

@@ -1,0 +1,899 @@
+"""Model-free control: the ultra-local model and the intelligent controllers iP, iPI, iPD, iPID.
+
+The unknown single-input single-output plant is replaced, on a short sliding window, by the
+*ultra-local model* (paper eq. (ultralocal))::
+
+    y^(nu) = F + alpha u,        nu = 1 or 2,
+
+where ``alpha`` is chosen by the user (so that ``alpha u`` and ``y^(nu)`` have the same order of
+magnitude) and ``F`` lumps everything else: unknown dynamics, disturbances, the mismatch between
+``alpha`` and the true input gain. ``F`` is estimated at every sample from the measured ``y`` and
+the input **actually applied** (after rate limit and saturation) and cancelled. With the tracking
+error ``e = y - y_ref`` (NOTES.md "Intelligent controllers": the sign the paper uses in Section
+3.2; Section 3.3 mixes signs) the four controllers are::
+
+    iP   (nu = 1): u = -(F_hat - y_ref'  + Kp e)                         / alpha
+    iPI  (nu = 1): u = -(F_hat - y_ref'  + Kp e + Ki int e)              / alpha
+    iPD  (nu = 2): u = -(F_hat - y_ref'' + Kp e          + Kd e')        / alpha
+    iPID (nu = 2): u = -(F_hat - y_ref'' + Kp e + Ki int e + Kd e')      / alpha
+
+and with a perfect estimate the closed-loop error obeys ``e' + Kp e (+ Ki int e) = 0`` (nu = 1)
+or ``e'' + Kd e' + Kp e (+ Ki int e) = 0`` (nu = 2), whatever the plant: see
+:func:`error_dynamics_gains`.
+
+Two doors, one implementation (DESIGN.md "Speed by design"):
+
+* compiled: :func:`intelligent_step` (``numba.njit``) over a flat parameter array
+  (:meth:`IntelligentParams.to_array`, layout :class:`IPAR`) and a state array that it mutates
+  in place (:func:`make_state`, layout :class:`IST`); allocation-free, callable from another
+  compiled loop (one parameter/state pair per controlled channel);
+* Python: :class:`IntelligentController` (and the shorthands :class:`IP`, :class:`IPI`,
+  :class:`IPD`, :class:`IPID`) with ``reset()``, ``step()`` and ``status``.
+
+Conventions of one step at sample ``k`` (time ``t_k = k dt``)
+--------------------------------------------------------------
+* ``y`` is the measurement at ``t_k``; the returned ``u_k`` is held (zero-order hold) on
+  ``[t_k, t_{k+1})``. The estimator assumes exactly this timing; an actuator delay is part of
+  the unknown ``F`` (and degrades it: see the tests on delayed inputs).
+* Estimator of F (``estimator=``):
+
+  - ``"algebraic"`` (default): the paper's algebraic estimator (eqs. (integral), (integral_2)
+    with the sign corrected in NOTES.md) in its exact discrete form
+    :func:`flatfree.estimators.f_estimator_weights`: over a window of ``window`` samples
+    (span ``T = (window - 1) dt``) it returns F exactly when F is constant on the window, for any
+    zero-order-hold input and any initial conditions;
+  - ``"simple"``: ``F_hat = y^(nu)_hat - alpha u_{k-1}`` (NOTES.md, "a common, simpler discrete
+    variant"), ``y^(nu)_hat`` from :func:`flatfree.estimators.derivative_weights`. Exact only
+    for ``window = nu + 1``; it needs ``alpha > b / 2`` on ``y' = F + b u`` (see below).
+
+* ``e'`` (nu = 2 only, ``derivative=``); neither source needs a measured derivative, both are
+  derivative-free variants of the iPD in the sense that only ``y`` and the applied ``u`` are used:
+
+  - ``"algebraic"`` (default): ``y'_hat`` = the paper's algebraic derivative (eq. (Derivative),
+    NOTES.md) over ``derivative_window`` samples, exact on ramps; on a parabola it returns the
+    derivative at the middle of the window, a lag of ``T_d / 2``;
+  - ``"model"``: the F estimator's own derivative: the least-squares fit of the ultra-local
+    model ``y'' = F + alpha u`` (constant F, applied input) over the window, evaluated at
+    ``t_k``; exact, without lag, whenever F is constant on the window.
+
+  then ``e' = y'_hat - y_ref'``.
+
+Stable range of alpha (measured)
+--------------------------------
+Numbers from ``test_alpha_sweep_records_the_stable_range`` in ``tests/test_intelligent.py``.
+On ``y' = F(t) + b u`` with ``b`` unknown to the controller (``F = 0.2 + 0.3 sin t``, reference
+``sin(0.5 t)``, ``Kp = 2 /s``, ``dt = 0.01 s``), the iP with the windowed algebraic estimator
+(``window = 10``) stayed bounded for every ``alpha / b`` from 0.24 to 50 and diverged at 0.2
+(0.22: a slowly growing oscillation). The issue's reference figure, "stable down to about
+0.24 b", is confirmed; the edge moves with the window (about 0.26 at ``window = 5``, below 0.2 at
+``window = 20`` in a similar run). Tracking degrades as ``alpha / b`` grows, because the part
+``(1 - b / alpha)`` of the input that ``alpha`` misses is supplied through the estimator's lag.
+Worst error over the second half of a 20 s run (reference amplitude 1):
+
+    alpha/b   0.24-0.5   1      2      5      10     20     30     50
+    max|e|    0.006      0.007  0.020  0.062  0.14   0.34   0.58   1.0
+
+The simple variant ``F = y'_hat - alpha u_{k-1}``: with ``window = 2`` (backward difference) the
+input obeys a recursion with the root ``1 - b / alpha``: stable iff ``alpha / b > 1/2`` (0.5
+diverged, 0.52 tracked). With ``window = 10`` it diverged for ``alpha / b <= 2`` (a windowed,
+delayed derivative mixed with the instantaneous previous input is inconsistent) and tracked
+from 3 on, better than the algebraic estimator at large ratios (0.05 at 20: its input term has
+no lag). Rule of thumb: choose ``alpha`` near the largest expected input gain; an input delay
+moves the lower edge up (with a one-sample delay ``alpha / b = 1/3`` diverged; see the tests).
+
+Start, limits, bad samples
+--------------------------
+* Bumpless start: until ``window`` (and ``derivative_window``) samples have been received the
+  estimator has no full window; the controller then holds ``u0`` (clipped to the limits),
+  the integral stays 0 and F_hat is reported 0. The first law output is rate-limited from
+  ``u0`` when ``rate_max`` is finite (set a rate limit for a bump-free switch-on).
+* Actuator model: the law's command is first rate-limited (``|u_k - u_{k-1}| <= rate_max dt``)
+  then clipped to ``[u_min, u_max]``; the result is applied, returned, and fed to the estimator.
+* Anti-windup (``anti_windup="clamp"``, default): conditional integration. The integral
+  ``I_k = I_{k-1} + e_k dt`` is kept only if the limited output is not limited in the
+  direction that the increment pushes; otherwise ``I_k = I_{k-1}``. ``"none"`` always
+  integrates (for comparison). Note that the F estimator itself does not wind up: it sees the
+  applied input, so a binding limit shows up in F_hat as the unreachable part of the demand.
+* A non-finite ``y`` (or reference): the previous output is held, the sample is counted in
+  ``status.n_nonfinite`` and flagged in ``status.nonfinite``. To keep the window's time base,
+  a missing ``y`` is replaced in the window by the ultra-local model's one-step prediction
+  ``y_{k-1} + dt (F_hat + alpha u_{k-1})`` (nu = 1) or
+  ``y_{k-1} + dt y'_hat + dt^2 (F_hat + alpha u_{k-1}) / 2`` (nu = 2, and ``y'_hat`` moves on
+  by ``dt (F_hat + alpha u_{k-1})``); exact on the ultra-local model with constant F (with the
+  ``"model"`` derivative for nu = 2). Before the first finite
+  sample nothing is stored, and before the window is full the last finite value is repeated.
+
+References
+----------
+.. [P] paper 000_81cd509a47ab99bc, Section 3.2 (ultra-local model, iP/iPI/iPD/iPID, algebraic
+   estimation of F); signs corrected in /work/shared/paper/NOTES.md "Intelligent controllers"
+   and "Algebraic estimators".
+.. [FJ13] M. Fliess, C. Join, "Model-free control", Int. J. Control 86 (2013) 2228-2252.
+.. [AM08] K. J. Astrom, R. M. Murray, Feedback Systems, Princeton 2008, Section 10.4
+   (integrator windup, conditional integration).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from flatfree._validate import finite, positive
+from flatfree.estimators import derivative_weights, f_estimator_weights
+
+__all__ = [
+    "IPAR",
+    "IST",
+    "IntelligentParams",
+    "IntelligentStatus",
+    "IntelligentController",
+    "IP",
+    "IPI",
+    "IPD",
+    "IPID",
+    "ErrorDynamicsGains",
+    "error_dynamics_gains",
+    "intelligent_step",
+    "intelligent_reset",
+    "make_state",
+    "model_derivative_weights",
+    "ESTIMATOR_CODES",
+    "DERIVATIVE_CODES",
+    "ANTI_WINDUP_CODES",
+]
+
+ESTIMATOR_CODES = {"algebraic": 0, "simple": 1}
+DERIVATIVE_CODES = {"algebraic": 0, "model": 1}
+ANTI_WINDUP_CODES = {"clamp": 0, "none": 1}
+
+
+class IPAR(enum.IntEnum):
+    """Header of the parameter array (:meth:`IntelligentParams.to_array`).
+
+    After the header come four weight blocks of ``L`` entries each, ``L = IPAR.L`` (the buffer
+    length, ``max(window, derivative_window)``), zero-padded: ``wy`` (F, on ``y[k-i]``), ``wu``
+    (F, on ``u[k-1-i]``), ``wdy`` and ``wdu`` (``y'_hat``, same pattern; nu = 2 only).
+    """
+
+    NU = 0  # order of the ultra-local model, 1 or 2
+    ALPHA = 1  # input gain of the ultra-local model, (y-unit / s^nu) per u-unit
+    KP = 2  # 1/s^nu
+    KI = 3  # 1/s^(nu+1)
+    KD = 4  # 1/s (nu = 2)
+    DT = 5  # sample time, s
+    U_MIN = 6  # u-unit
+    U_MAX = 7  # u-unit
+    RATE_MAX = 8  # u-unit / s (inf: none)
+    U0 = 9  # u-unit, held before the window is full
+    AW = 10  # ANTI_WINDUP_CODES
+    L = 11  # buffer length, samples
+
+
+_HP = len(IPAR)
+
+
+class IST(enum.IntEnum):
+    """Header of the state array (:func:`make_state`); then two ring buffers of ``2 L`` entries
+    (measurements ``y`` and applied inputs ``u``, each sample written twice so that the last
+    ``L`` are contiguous, newest first)."""
+
+    K = 0  # samples stored in the window so far
+    HEAD = 1  # ring position of the newest sample
+    N_NONFINITE = 2  # count of held steps (non-finite y or reference)
+    NONFINITE = 3  # 1 if the last step was held
+    U = 4  # last applied output, u-unit
+    INTEGRAL = 5  # int e dt, y-unit s
+    F_HAT = 6  # last F estimate, y-unit / s^nu
+    E = 7  # last tracking error y - y_ref
+    E_DOT = 8  # last e' estimate (nu = 2)
+    YDOT = 9  # last y' estimate (nu = 2)
+    SAT = 10  # -1 / 0 / +1: output at u_min / inside / at u_max after the last step
+    RATE = 11  # -1 / 0 / +1: rate limit active (falling / no / rising)
+    Y_LAST = 12  # newest value in the y window
+
+
+_HS = len(IST)
+
+# plain ints for the compiled code (numba folds module-level ints into constants)
+_NU, _ALPHA, _KP, _KI, _KD, _DT = 0, 1, 2, 3, 4, 5
+_UMIN, _UMAX, _RATE, _U0, _AW, _L = 6, 7, 8, 9, 10, 11
+_K, _HEAD, _NNF, _NF, _U, _INT, _FH, _E, _ED, _YD, _SAT, _RL, _YL = range(13)
+assert [m.value for m in IPAR] == list(range(12)) and _HP == 12
+assert [m.value for m in IST] == list(range(13)) and _HS == 13
+
+
+# --------------------------------------------------------------------------------------------
+# Compiled kernels
+# --------------------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def _limit(p: np.ndarray, u_cmd: float, u_prev: float) -> tuple[float, float, float]:
+    """Rate limit then saturation; returns (u, sat flag -1/0/1, rate flag -1/0/1)."""
+    u = u_cmd
+    rl = 0.0
+    r = p[_RATE] * p[_DT]
+    if u > u_prev + r:
+        u = u_prev + r
+        rl = 1.0
+    elif u < u_prev - r:
+        u = u_prev - r
+        rl = -1.0
+    sat = 0.0
+    if u > p[_UMAX]:
+        u = p[_UMAX]
+        sat = 1.0
+    elif u < p[_UMIN]:
+        u = p[_UMIN]
+        sat = -1.0
+    return u, sat, rl
+
+
+@numba.njit("void(float64[::1], float64[::1])", cache=True)
+def intelligent_reset(p: np.ndarray, s: np.ndarray) -> None:
+    """Reset a state array in place (compiled; callable from another compiled loop).
+
+    Parameters
+    ----------
+    p : ndarray
+        Parameter array from :meth:`IntelligentParams.to_array`.
+    s : ndarray
+        State array of length ``len(IST) + 4 L`` (:func:`make_state`).
+    """
+    s[:] = 0.0
+    u0 = min(max(p[_U0], p[_UMIN]), p[_UMAX])
+    s[_U] = u0
+
+
+@numba.njit(
+    "float64(float64[::1], float64[::1], float64, float64, float64, float64)",
+    cache=True,
+    fastmath=False,
+)
+def intelligent_step(
+    p: np.ndarray,
+    s: np.ndarray,
+    y: float,
+    y_ref: float,
+    y_ref_dot: float,
+    y_ref_ddot: float,
+) -> float:
+    """One sample of an intelligent controller (iP/iPI/iPD/iPID); mutates ``s``, returns ``u_k``.
+
+    Parameters
+    ----------
+    p : ndarray
+        Parameter array (:meth:`IntelligentParams.to_array`, layout :class:`IPAR`).
+    s : ndarray
+        State array (:func:`make_state`, layout :class:`IST`), updated in place.
+    y : float
+        Measurement at ``t_k``.
+    y_ref, y_ref_dot, y_ref_ddot : float
+        Reference and its first two time derivatives at ``t_k`` (``y_ref_ddot`` is used by
+        nu = 2 only; ``y_ref_dot`` by nu = 1 in the law and by nu = 2 in ``e'``).
+
+    Returns
+    -------
+    float
+        The applied output ``u_k`` (after rate limit and saturation), to hold on
+        ``[t_k, t_{k+1})``.
+
+    Notes
+    -----
+    The law (module docstring, paper eqs. (iPID_c), (iPI_c), (ip), NOTES.md signs)::
+
+        u = -(F_hat - y_ref^(nu) + Kp e + Ki int e + Kd e') / alpha,   e = y - y_ref.
+
+    References
+    ----------
+    .. [P] paper Section 3.2.2-3.2.3, corrected in NOTES.md "Intelligent controllers".
+    """
+    L = int(p[_L])
+    nu = int(p[_NU])
+    alpha = p[_ALPHA]
+    dt = p[_DT]
+    wy0 = _HP
+    wu0 = _HP + L
+    wdy0 = _HP + 2 * L
+    wdu0 = _HP + 3 * L
+    yb0 = _HS
+    ub0 = _HS + 2 * L
+    u_prev = s[_U]
+    k = int(s[_K])
+
+    y_ok = math.isfinite(y)
+    ref_ok = math.isfinite(y_ref) and math.isfinite(y_ref_dot) and math.isfinite(y_ref_ddot)
+
+    if not y_ok and k == 0:
+        # nothing known yet: hold, store nothing (the window starts at the first finite y)
+        s[_NNF] += 1.0
+        s[_NF] = 1.0
+        return u_prev
+
+    # ---- push the measurement (or the model's prediction of it) into the y ring buffer ----
+    if y_ok:
+        y_in = y
+    elif k >= L:
+        # NOTES.md ultra-local model, one zero-order-hold step: y' = F + alpha u
+        acc = s[_FH] + alpha * u_prev
+        if nu == 1:
+            y_in = s[_YL] + dt * acc
+        else:
+            y_in = s[_YL] + dt * s[_YD] + 0.5 * dt * dt * acc
+            s[_YD] += dt * acc  # the velocity moves on too (consecutive missing samples)
+    else:
+        y_in = s[_YL]
+    head = int(s[_HEAD]) - 1
+    if head < 0:
+        head += L
+    s[_HEAD] = head
+    s[yb0 + head] = y_in
+    s[yb0 + head + L] = y_in
+    s[_YL] = y_in
+    if k < L:
+        k += 1
+        s[_K] = k
+    full = k >= L
+
+    u_out = u_prev
+    if full and y_ok:
+        # F_hat = sum wy[i] y[k-i] + alpha sum wu[j] u[k-1-j]   (estimators.f_estimator_weights)
+        # y'_hat = sum wdy[i] y[k-i] + alpha sum wdu[j] u[k-1-j]  (nu = 2; wdu = 0: algebraic)
+        # the sums are fused into one loop: independent accumulators, not one long add chain
+        ybase = yb0 + head
+        ubase = ub0 + head + 1
+        last = L - 1
+        ay = p[wy0 + last] * s[ybase + last]
+        au = 0.0
+        if nu == 1:
+            for i in range(last):
+                ay += p[wy0 + i] * s[ybase + i]
+                au += p[wu0 + i] * s[ubase + i]
+        else:
+            dy = p[wdy0 + last] * s[ybase + last]
+            du = 0.0
+            for i in range(last):
+                yi = s[ybase + i]
+                ui = s[ubase + i]
+                ay += p[wy0 + i] * yi
+                au += p[wu0 + i] * ui
+                dy += p[wdy0 + i] * yi
+                du += p[wdu0 + i] * ui
+            s[_YD] = dy + alpha * du
+        s[_FH] = ay + alpha * au
+    if full and y_ok and ref_ok:
+        e = y - y_ref
+        s[_E] = e
+        if nu == 1:
+            v0 = s[_FH] - y_ref_dot + p[_KP] * e  # paper eq. (ip), NOTES.md sign
+        else:
+            e_dot = s[_YD] - y_ref_dot
+            s[_ED] = e_dot
+            v0 = s[_FH] - y_ref_ddot + p[_KP] * e + p[_KD] * e_dot  # paper eq. (iPD_c), NOTES.md
+        ki = p[_KI]
+        i_old = s[_INT]
+        i_new = i_old + e * dt  # rectangle rule, includes e_k
+        u_cmd = -(v0 + ki * i_new) / alpha  # paper eqs. (iPI_c), (iPID_c)
+        u_lim, sat, rl = _limit(p, u_cmd, u_prev)
+        if ki != 0.0 and int(p[_AW]) == 0 and (sat != 0.0 or rl != 0.0):
+            # conditional integration [AM08 10.4]: drop the increment if it pushes u further
+            # into the active limit; du/dI = -ki/alpha
+            push = -ki / alpha * e
+            lim_dir = sat if sat != 0.0 else rl
+            if push * lim_dir > 0.0:
+                i_new = i_old
+                u_cmd = -(v0 + ki * i_new) / alpha
+                u_lim, sat, rl = _limit(p, u_cmd, u_prev)
+        s[_INT] = i_new
+        s[_SAT] = sat
+        s[_RL] = rl
+        s[_NF] = 0.0
+        u_out = u_lim
+    elif not (y_ok and ref_ok):
+        s[_NNF] += 1.0
+        s[_NF] = 1.0
+    else:
+        s[_NF] = 0.0  # window not full yet: hold u0 (bumpless start, module docstring)
+
+    s[_U] = u_out
+    s[ub0 + head] = u_out
+    s[ub0 + head + L] = u_out
+    return u_out
+
+
+# --------------------------------------------------------------------------------------------
+# Weights
+# --------------------------------------------------------------------------------------------
+def model_derivative_weights(n: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Weights of ``y'(t_k)`` from the nu = 2 ultra-local model fitted on the window.
+
+    ``y'_hat[k] = sum_{i=0}^{n-1} wy[i] y[k-i] + alpha sum_{j=0}^{n-2} wu[j] u[k-1-j]`` is exact
+    (to rounding) when ``y'' = F + alpha u`` with F constant on the window and ``u`` held on each
+    sample interval, for any initial position and velocity. It is the derivative at the window's
+    end of the least-squares quadratic through the input-corrected samples.
+
+    Parameters
+    ----------
+    n : int
+        Window length in samples, >= 3.
+    dt : float
+        Sample time, s.
+
+    Returns
+    -------
+    wy : ndarray, shape (n,)
+        1/s; ``wy[0]`` multiplies the newest sample.
+    wu : ndarray, shape (n - 1,)
+        s; ``wu[0]`` multiplies ``u[k-1]``.
+
+    Notes
+    -----
+    With ``z_m = y_m - alpha dt^2 sum_{l<m} (m - l - 1/2) u_l`` (exact double integral of the
+    held input from the window start) ``z`` is a quadratic in time, so any weights ``c`` with
+    ``sum c = 0, sum c tau = 1, sum c tau^2 = 0`` (``tau_i = -i dt``) give ``z'(t_k)``, and
+    ``y'(t_k) = z'(t_k) + alpha dt sum u_l``. Collecting the input terms:
+    ``wu[j] = dt - dt^2 sum_{i<=j} c_i (j - i + 1/2)``.
+
+    References
+    ----------
+    .. [P] paper Section 3.2.3 (estimation on the ultra-local model); NOTES.md nu = 2 model.
+    """
+    n = int(n)
+    if n < 3:
+        raise ValueError(f"derivative_window = {n!r} samples: must be >= 3 for nu = 2")
+    dt = positive("dt", dt, "s")
+    x = -np.arange(n, dtype=np.float64)  # tau_i / dt, newest first
+    xc = x - x.mean()
+    v = np.column_stack([np.ones(n), xc, 0.5 * xc * xc])
+    # coefficients of the fitted quadratic in xc: z = a0 + a1 xc + a2 xc^2/2
+    pinv = np.linalg.pinv(v)
+    # derivative at tau = 0, i.e. xc = -mean(x): a1 + a2 * (-mean(x))
+    c = (pinv[1] + pinv[2] * (-x.mean())) / dt
+    wu = np.empty(n - 1)
+    for j in range(n - 1):
+        i = np.arange(j + 1)
+        wu[j] = dt - dt * dt * float(np.sum(c[: j + 1] * (j - i + 0.5)))
+    return np.ascontiguousarray(c), wu
+
+
+# --------------------------------------------------------------------------------------------
+# Parameters, gains
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True, kw_only=True)
+class IntelligentParams:
+    """Parameters of an intelligent controller (iP/iPI with nu = 1, iPD/iPID with nu = 2).
+
+    Attributes
+    ----------
+    nu : int
+        Order of the ultra-local model ``y^(nu) = F + alpha u``, 1 or 2.
+    alpha : float
+        Input gain of the ultra-local model, (y-unit / s^nu) per u-unit, nonzero. Chosen by the
+        user near the plant's input gain; see the module docstring for the measured stable
+        range of ``alpha / b``.
+    dt : float
+        Sample time, s, > 0 (never assumed).
+    kp, ki, kd : float
+        Gains, >= 0: ``kp`` in 1/s^nu, ``ki`` in 1/s^(nu+1), ``kd`` in 1/s (nu = 2 only).
+        :func:`error_dynamics_gains` picks them from desired error dynamics.
+    window : int
+        Samples in the F estimator's window (span ``(window - 1) dt``); ``>= nu + 1``. Required,
+        like ``dt``: the window's duration is a design choice, never assumed.
+    estimator : str
+        ``"algebraic"`` (paper, default) or ``"simple"`` (``y^(nu)_hat - alpha u_{k-1}``).
+    derivative : str
+        Source of ``e'`` for nu = 2: ``"algebraic"`` (default) or ``"model"``.
+    derivative_window : int or None
+        Samples of the ``e'`` estimator (nu = 2 only, ignored for nu = 1); None: ``window``.
+        ``>= 2`` (algebraic) or ``>= 3`` (model).
+    u_min, u_max : float
+        Actuator limits, u-unit (infinite: none).
+    rate_max : float
+        Rate limit, u-unit/s, > 0 (inf: none).
+    u0 : float
+        Output held before the estimator's window is full, u-unit.
+    anti_windup : str
+        ``"clamp"`` (conditional integration, default) or ``"none"``.
+
+    References
+    ----------
+    .. [P] paper Section 3.2; NOTES.md "Intelligent controllers".
+    """
+
+    nu: int
+    alpha: float
+    dt: float
+    window: int
+    kp: float = 0.0
+    ki: float = 0.0
+    kd: float = 0.0
+    estimator: str = "algebraic"
+    derivative: str = "algebraic"
+    derivative_window: int | None = None
+    u_min: float = -math.inf
+    u_max: float = math.inf
+    rate_max: float = math.inf
+    u0: float = 0.0
+    anti_windup: str = "clamp"
+
+    def __post_init__(self) -> None:
+        if isinstance(self.nu, bool) or self.nu not in (1, 2):
+            raise ValueError(f"nu = {self.nu!r}: must be 1 or 2")
+        a = finite("alpha", self.alpha, "(y-unit/s^nu) per u-unit")
+        if a == 0.0:
+            raise ValueError(f"alpha = {self.alpha!r} (y-unit/s^nu) per u-unit: must be nonzero")
+        positive("dt", self.dt, "s")
+        for name, unit in (("kp", "1/s^nu"), ("ki", "1/s^(nu+1)"), ("kd", "1/s")):
+            v = finite(name, getattr(self, name), unit)
+            if v < 0.0:
+                raise ValueError(f"{name} = {v!r} {unit}: must be >= 0")
+        if self.nu == 1 and self.kd != 0.0:
+            raise ValueError(f"kd = {self.kd!r} 1/s: must be 0 for nu = 1 (iP, iPI)")
+        if self.estimator not in ESTIMATOR_CODES:
+            raise ValueError(
+                f"estimator = {self.estimator!r}: must be one of {sorted(ESTIMATOR_CODES)}"
+            )
+        if self.derivative not in DERIVATIVE_CODES:
+            raise ValueError(
+                f"derivative = {self.derivative!r}: must be one of {sorted(DERIVATIVE_CODES)}"
+            )
+        if self.anti_windup not in ANTI_WINDUP_CODES:
+            raise ValueError(
+                f"anti_windup = {self.anti_windup!r}: must be one of {sorted(ANTI_WINDUP_CODES)}"
+            )
+        _check_window("window", self.window, self.nu + 1, f"the nu = {self.nu} estimator")
+        if self.derivative_window is not None:
+            lo = 3 if self.derivative == "model" else 2
+            _check_window("derivative_window", self.derivative_window, lo, "the e' estimator")
+        elif self.nu == 2 and self.derivative == "model":
+            _check_window("window", self.window, 3, "the model derivative")
+        umin = float(self.u_min)
+        umax = float(self.u_max)
+        if math.isnan(umin) or math.isnan(umax) or not umin < umax:
+            raise ValueError(
+                f"u_min = {self.u_min!r}, u_max = {self.u_max!r} u-unit: need u_min < u_max"
+            )
+        r = float(self.rate_max)
+        if not r > 0.0:
+            raise ValueError(f"rate_max = {self.rate_max!r} u-unit/s: must be > 0 (inf: none)")
+        finite("u0", self.u0, "u-unit")
+
+    @property
+    def buffer_length(self) -> int:
+        """Ring buffer length ``L = max(window, derivative_window)`` (samples)."""
+        dw = self.window if self.derivative_window is None else self.derivative_window
+        return max(int(self.window), int(dw)) if self.nu == 2 else int(self.window)
+
+    def to_array(self) -> np.ndarray:
+        """The parameters and estimator weights as one float64 array (layout :class:`IPAR`)."""
+        L = self.buffer_length
+        n = int(self.window)
+        p = np.zeros(_HP + 4 * L, dtype=np.float64)
+        p[_NU] = self.nu
+        p[_ALPHA] = self.alpha
+        p[_KP] = self.kp
+        p[_KI] = self.ki
+        p[_KD] = self.kd
+        p[_DT] = self.dt
+        p[_UMIN] = self.u_min
+        p[_UMAX] = self.u_max
+        p[_RATE] = self.rate_max
+        p[_U0] = self.u0
+        p[_AW] = ANTI_WINDUP_CODES[self.anti_windup]
+        p[_L] = L
+        if self.estimator == "algebraic":
+            wy, wu = f_estimator_weights(self.nu, n, self.dt)  # NOTES.md algebraic estimators
+        else:
+            # NOTES.md simple variant: F = y^(nu)_hat - alpha u_{k-1}
+            wy = derivative_weights(n, self.dt, order=self.nu)
+            wu = np.zeros(n - 1)
+            wu[0] = -1.0
+        p[_HP : _HP + n] = wy
+        p[_HP + L : _HP + L + n - 1] = wu
+        if self.nu == 2:
+            nd = n if self.derivative_window is None else int(self.derivative_window)
+            if self.derivative == "algebraic":
+                wdy = derivative_weights(nd, self.dt, order=1)  # paper eq. (Derivative), NOTES
+                wdu = np.zeros(nd - 1)
+            else:
+                wdy, wdu = model_derivative_weights(nd, self.dt)
+            p[_HP + 2 * L : _HP + 2 * L + nd] = wdy
+            p[_HP + 3 * L : _HP + 3 * L + nd - 1] = wdu
+        return p
+
+
+def _check_window(name: str, value, lo: int, what: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} = {value!r} samples: expected an integer")
+    if value < lo:
+        raise ValueError(f"{name} = {value!r} samples: {what} needs at least {lo}")
+
+
+def make_state(p: np.ndarray) -> np.ndarray:
+    """A fresh (reset) state array for the parameter array ``p`` (layout :class:`IST`)."""
+    s = np.zeros(_HS + 4 * int(p[_L]), dtype=np.float64)
+    intelligent_reset(p, s)
+    return s
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorDynamicsGains:
+    """Gains of an intelligent controller: ``kp`` (1/s^nu), ``ki`` (1/s^(nu+1)), ``kd`` (1/s)."""
+
+    kp: float
+    ki: float
+    kd: float
+
+
+def error_dynamics_gains(
+    nu: int,
+    *,
+    time_constant: float | None = None,
+    natural_frequency: float | None = None,
+    damping: float | None = None,
+    integral_pole: float | None = None,
+) -> ErrorDynamicsGains:
+    """Gains that give the closed-loop error the desired linear dynamics.
+
+    With a perfect F estimate the plant disappears from the loop (paper Section 3.2.2) and the
+    error ``e = y - y_ref`` obeys
+
+    * iP  (nu = 1): ``e' + Kp e = 0``; ``Kp = 1 / time_constant``;
+    * iPI (nu = 1): ``e'' + Kp e' + Ki e = 0`` (differentiated), poles ``-1/time_constant`` and
+      ``-integral_pole``: ``Kp = 1/tau + p``, ``Ki = p / tau``;
+    * iPD (nu = 2): ``e'' + Kd e' + Kp e = 0``; ``Kp = wn^2``, ``Kd = 2 zeta wn``;
+    * iPID (nu = 2): ``e''' + Kd e'' + Kp e' + Ki e = 0``, characteristic polynomial
+      ``(s^2 + 2 zeta wn s + wn^2)(s + p)``: ``Kd = 2 zeta wn + p``, ``Kp = wn^2 + 2 zeta wn p``,
+      ``Ki = wn^2 p``.
+
+    Parameters
+    ----------
+    nu : int
+        1 or 2.
+    time_constant : float
+        Desired error time constant ``tau``, s (nu = 1).
+    natural_frequency, damping : float
+        ``wn`` in rad/s and ``zeta`` (nu = 2).
+    integral_pole : float, optional
+        ``p`` in 1/s, the extra real pole that the integral adds; None: no integral (Ki = 0).
+
+    Returns
+    -------
+    ErrorDynamicsGains
+
+    References
+    ----------
+    .. [P] paper Section 3.2.2 (closed-loop error equation); NOTES.md "Intelligent controllers".
+    """
+    p = 0.0 if integral_pole is None else positive("integral_pole", integral_pole, "1/s")
+    if nu == 1:
+        if time_constant is None:
+            raise ValueError("time_constant = None s: required for nu = 1")
+        if natural_frequency is not None or damping is not None:
+            raise ValueError("natural_frequency/damping: not used for nu = 1 (give time_constant)")
+        tau = positive("time_constant", time_constant, "s")
+        return ErrorDynamicsGains(kp=1.0 / tau + p, ki=p / tau, kd=0.0)
+    if nu == 2:
+        if natural_frequency is None or damping is None:
+            raise ValueError(
+                f"natural_frequency = {natural_frequency!r} rad/s, damping = {damping!r}: "
+                "both required for nu = 2"
+            )
+        if time_constant is not None:
+            raise ValueError("time_constant: not used for nu = 2 (give natural_frequency, damping)")
+        wn = positive("natural_frequency", natural_frequency, "rad/s")
+        z = positive("damping", damping, "-")
+        return ErrorDynamicsGains(
+            kp=wn * wn + 2.0 * z * wn * p, ki=wn * wn * p, kd=2.0 * z * wn + p
+        )
+    raise ValueError(f"nu = {nu!r}: must be 1 or 2")
+
+
+# --------------------------------------------------------------------------------------------
+# Python shell
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class IntelligentStatus:
+    """Snapshot of an intelligent controller's state after its last step.
+
+    Attributes
+    ----------
+    samples : int
+        Samples stored in the window (saturates at the buffer length).
+    window_full : bool
+        The estimator is running (before: ``u0`` is held).
+    n_nonfinite : int
+        Steps held because ``y`` or the reference was not finite.
+    nonfinite : bool
+        The last step was such a held step.
+    saturated : int
+        -1 / 0 / +1: the last output is clipped at ``u_min`` / not clipped / at ``u_max``.
+    rate_limited : int
+        -1 / 0 / +1: the rate limit cut the last output's fall / nothing / its rise.
+    f_hat : float
+        Last F estimate, y-unit/s^nu.
+    error : float
+        Last ``e = y - y_ref``.
+    error_rate : float
+        Last ``e'`` estimate (nu = 2).
+    integral : float
+        ``int e dt``.
+    u : float
+        Last applied output.
+    """
+
+    samples: int
+    window_full: bool
+    n_nonfinite: int
+    nonfinite: bool
+    saturated: int
+    rate_limited: int
+    f_hat: float
+    error: float
+    error_rate: float
+    integral: float
+    u: float
+
+
+class IntelligentController:
+    """Python shell over :func:`intelligent_step` (one SISO loop; use one instance per loop).
+
+    Parameters
+    ----------
+    params : IntelligentParams
+
+    Examples
+    --------
+    >>> c = IP(alpha=2.0, kp=5.0, dt=0.01, window=10)
+    >>> u = c.step(y=0.0, y_ref=1.0, y_ref_dot=0.0)
+
+    References
+    ----------
+    .. [P] paper Section 3.2; NOTES.md "Intelligent controllers".
+    """
+
+    __slots__ = ("_params", "_p", "_s")
+
+    def __init__(self, params: IntelligentParams) -> None:
+        if not isinstance(params, IntelligentParams):
+            raise ValueError(f"params = {params!r}: expected IntelligentParams")
+        self._params = params
+        self._p = params.to_array()
+        self._s = make_state(self._p)
+
+    @property
+    def params(self) -> IntelligentParams:
+        """The frozen parameters."""
+        return self._params
+
+    @property
+    def params_array(self) -> np.ndarray:
+        """The compiled kernel's parameter array (read it, do not modify it)."""
+        return self._p
+
+    @property
+    def state_array(self) -> np.ndarray:
+        """The compiled kernel's state array (mutated by every step)."""
+        return self._s
+
+    def reset(self) -> None:
+        """Back to the state right after construction."""
+        intelligent_reset(self._p, self._s)
+
+    def step(
+        self, y: float, y_ref: float, y_ref_dot: float = 0.0, y_ref_ddot: float = 0.0
+    ) -> float:
+        """One sample: measurement ``y`` at ``t_k`` and the reference; returns the applied ``u_k``.
+
+        See :func:`intelligent_step`.
+        """
+        return intelligent_step(self._p, self._s, y, y_ref, y_ref_dot, y_ref_ddot)
+
+    @property
+    def status(self) -> IntelligentStatus:
+        """Counters and flags after the last step (:class:`IntelligentStatus`)."""
+        s = self._s
+        L = int(self._p[_L])
+        return IntelligentStatus(
+            samples=int(s[_K]),
+            window_full=int(s[_K]) >= L,
+            n_nonfinite=int(s[_NNF]),
+            nonfinite=bool(s[_NF]),
+            saturated=int(s[_SAT]),
+            rate_limited=int(s[_RL]),
+            f_hat=float(s[_FH]),
+            error=float(s[_E]),
+            error_rate=float(s[_ED]),
+            integral=float(s[_INT]),
+            u=float(s[_U]),
+        )
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._params!r})"
+
+
+class IP(IntelligentController):
+    """Intelligent proportional controller, nu = 1: ``u = -(F_hat - y_ref' + Kp e) / alpha``.
+
+    Keyword arguments as :class:`IntelligentParams` (``nu = 1``, ``ki = kd = 0`` fixed); the
+    same holds for :class:`IPI`, :class:`IPD` and :class:`IPID` with their own gains.
+
+    References
+    ----------
+    .. [P] paper eq. (ip); NOTES.md "Intelligent controllers".
+    """
+
+    __slots__ = ()
+
+    def __init__(
+        self, *, alpha: float, kp: float, dt: float, window: int, **options
+    ) -> None:
+        super().__init__(
+            IntelligentParams(nu=1, alpha=alpha, kp=kp, dt=dt, window=window, **options)
+        )
+
+
+class IPI(IntelligentController):
+    """Intelligent PI, nu = 1: ``u = -(F_hat - y_ref' + Kp e + Ki int e) / alpha``.
+
+    References
+    ----------
+    .. [P] paper eq. (iPI_c); NOTES.md "Intelligent controllers".
+    """
+
+    __slots__ = ()
+
+    def __init__(
+        self, *, alpha: float, kp: float, ki: float, dt: float, window: int, **options
+    ) -> None:
+        super().__init__(
+            IntelligentParams(nu=1, alpha=alpha, kp=kp, ki=ki, dt=dt, window=window, **options)
+        )
+
+
+class IPD(IntelligentController):
+    """Intelligent PD, nu = 2: ``u = -(F_hat - y_ref'' + Kp e + Kd e') / alpha``.
+
+    References
+    ----------
+    .. [P] paper eq. (iPD_c) (without the typo "Kp e dt"); NOTES.md "Intelligent controllers".
+    """
+
+    __slots__ = ()
+
+    def __init__(
+        self, *, alpha: float, kp: float, kd: float, dt: float, window: int, **options
+    ) -> None:
+        super().__init__(
+            IntelligentParams(nu=2, alpha=alpha, kp=kp, kd=kd, dt=dt, window=window, **options)
+        )
+
+
+class IPID(IntelligentController):
+    """Intelligent PID, nu = 2: ``u = -(F_hat - y_ref'' + Kp e + Ki int e + Kd e') / alpha``.
+
+    References
+    ----------
+    .. [P] paper eq. (iPID_c); NOTES.md "Intelligent controllers".
+    """
+
+    __slots__ = ()
+
+    def __init__(
+        self,
+        *,
+        alpha: float,
+        kp: float,
+        ki: float,
+        kd: float,
+        dt: float,
+        window: int,
+        **options,
+    ) -> None:
+        super().__init__(
+            IntelligentParams(
+                nu=2, alpha=alpha, kp=kp, ki=ki, kd=kd, dt=dt, window=window, **options
+            )
+        )

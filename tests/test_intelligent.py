@@ -1,0 +1,657 @@
+"""Tests of the intelligent controllers (flatfree.controllers.intelligent), issue 6.
+
+Every plant below is written here and unknown to the controller: the controller sees only the
+sampled measurement and its own applied input. Reference values come from closed forms (exact
+zero-order-hold recursions, the designed linear error dynamics via the matrix exponential),
+sympy (gain formulas), or a peer controller measured on the same runs (the classic PI).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+import pytest
+import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.linalg import expm
+
+from flatfree.controllers.intelligent import (
+    IP,
+    IPD,
+    IPI,
+    IPID,
+    IntelligentController,
+    IntelligentParams,
+    error_dynamics_gains,
+    intelligent_reset,
+    intelligent_step,
+    make_state,
+    model_derivative_weights,
+)
+
+
+# ------------------------------------------------------------------------------------------
+# helpers: plants (unknown to the controllers), integrators, a classic PI
+# ------------------------------------------------------------------------------------------
+def rk4(f, x, h, steps):
+    """``steps`` RK4 steps of size h for x' = f(x) (x a float or a numpy array)."""
+    for _ in range(steps):
+        k1 = f(x)
+        k2 = f(x + 0.5 * h * k1)
+        k3 = f(x + 0.5 * h * k2)
+        k4 = f(x + h * k3)
+        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return x
+
+
+def designed_error(a_mat: np.ndarray, x0: np.ndarray, t: np.ndarray, row: int) -> np.ndarray:
+    """Component ``row`` of x(t) = expm(A t) x0 (the designed linear error dynamics)."""
+    return np.array([(expm(a_mat * tt) @ x0)[row] for tt in t])
+
+
+class ClassicPI:
+    """u = Kc (e_r + (1/Ti) int e_r dt), e_r = r - y (the textbook form, [AM08] 10.1)."""
+
+    def __init__(self, kc: float, ti: float, dt: float) -> None:
+        self.kc, self.ti, self.dt, self.i = kc, ti, dt, 0.0
+
+    def step(self, y: float, r: float, r_dot: float = 0.0) -> float:
+        e = r - y
+        self.i += e * self.dt
+        return self.kc * (e + self.i / self.ti)
+
+
+# ------------------------------------------------------------------------------------------
+# validation
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        (dict(nu=1, alpha=0.0, window=10, dt=0.01), r"alpha = 0\.0"),
+        (dict(nu=1, alpha=1.0, window=10, dt=0.0), r"dt = 0\.0 s"),
+        (dict(nu=1, alpha=1.0, window=10, dt=-0.01), r"dt = -0\.01 s"),
+        (dict(nu=1, alpha=1.0, window=10, dt=float("nan")), r"dt = nan s"),
+        (dict(nu=1, alpha=1.0, dt=0.01, window=1), r"window = 1 samples.*at least 2"),
+        (dict(nu=2, alpha=1.0, dt=0.01, window=2), r"window = 2 samples.*at least 3"),
+        (dict(nu=2, alpha=1.0, dt=0.01, window=5, derivative="model", derivative_window=2),
+         r"derivative_window = 2"),
+        (dict(nu=2, alpha=1.0, dt=0.01, window=5, derivative_window=1), r"derivative_window = 1"),
+        (dict(nu=3, alpha=1.0, window=10, dt=0.01), r"nu = 3"),
+        (dict(nu=1, alpha=1.0, window=10, dt=0.01, kp=-1.0), r"kp = -1\.0"),
+        (dict(nu=1, alpha=1.0, window=10, dt=0.01, kd=1.0), r"kd = 1\.0"),
+        (
+            dict(nu=1, alpha=1.0, window=10, dt=0.01, u_min=1.0, u_max=1.0),
+            r"u_min = 1\.0, u_max = 1\.0",
+        ),
+        (dict(nu=1, alpha=1.0, window=10, dt=0.01, rate_max=0.0), r"rate_max = 0\.0"),
+        (dict(nu=1, alpha=1.0, window=10, dt=0.01, estimator="fancy"), r"estimator = 'fancy'"),
+        (dict(nu=1, alpha=1.0, window=10, dt=0.01, anti_windup="x"), r"anti_windup = 'x'"),
+    ],
+)
+def test_bad_parameters_raise_valueerror_with_value(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        IntelligentParams(**kwargs)
+
+
+def test_gain_helper_errors():
+    with pytest.raises(ValueError, match="time_constant = None"):
+        error_dynamics_gains(1)
+    with pytest.raises(ValueError, match=r"time_constant = -1\.0 s"):
+        error_dynamics_gains(1, time_constant=-1.0)
+    with pytest.raises(ValueError, match="damping = None"):
+        error_dynamics_gains(2, natural_frequency=3.0)
+    with pytest.raises(ValueError, match="nu = 3"):
+        error_dynamics_gains(3, time_constant=1.0)
+
+
+# ------------------------------------------------------------------------------------------
+# gains: the characteristic polynomial of the designed error dynamics (sympy)
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("nu", "kwargs", "poles"),
+    [
+        (1, dict(time_constant=0.25), [-4]),
+        (1, dict(time_constant=0.25, integral_pole=1.5), [-4, sp.Rational(-3, 2)]),
+        (2, dict(natural_frequency=3, damping=sp.Rational(1, 2)), None),
+        (2, dict(natural_frequency=3, damping=sp.Rational(7, 10), integral_pole=2), None),
+    ],
+)
+def test_error_dynamics_gains_place_the_designed_poles(nu, kwargs, poles):
+    g = error_dynamics_gains(nu, **{k: float(v) for k, v in kwargs.items()})
+    s = sp.symbols("s")
+    kp, ki, kd = (sp.nsimplify(x, rational=True, tolerance=1e-12) for x in (g.kp, g.ki, g.kd))
+    # closed-loop error equations of the module docstring (paper Section 3.2.2)
+    if nu == 1:
+        char = s * (s + kp) + ki if ki != 0 else s + kp
+    else:
+        char = s**3 + kd * s**2 + kp * s + ki if ki != 0 else s**2 + kd * s + kp
+    if poles is None:
+        wn, z = kwargs["natural_frequency"], kwargs["damping"]
+        want = s**2 + 2 * z * wn * s + wn**2
+        if "integral_pole" in kwargs:
+            want = sp.expand(want * (s + kwargs["integral_pole"]))
+    else:
+        want = sp.expand(sp.prod([s - p for p in poles]))
+    # exact rational arithmetic: the gains are rational functions of rational inputs
+    assert sp.expand(char - want) == 0
+
+
+# ------------------------------------------------------------------------------------------
+# exactness on the ultra-local model itself (ZOH closed forms; rounding-level tolerances)
+# ------------------------------------------------------------------------------------------
+def test_model_derivative_weights_exact_on_the_nu2_model():
+    # y'' = F + alpha u, F constant, u held on each interval: exact ZOH propagation.
+    rng = np.random.default_rng(20240601)
+    dt, alpha, f0 = 0.02, 1.7, -0.8
+    for n in (3, 4, 7, 15):
+        wy, wu = model_derivative_weights(n, dt)
+        y, v = 0.3, -1.1
+        ys, us, vs = [], [], []
+        for _ in range(n + 5):
+            u = float(rng.normal())
+            ys.append(y)
+            vs.append(v)
+            us.append(u)
+            acc = f0 + alpha * u
+            y, v = y + v * dt + 0.5 * acc * dt * dt, v + acc * dt
+        k = len(ys) - 1
+        est = sum(wy[i] * ys[k - i] for i in range(n)) + alpha * sum(
+            wu[j] * us[k - 1 - j] for j in range(n - 1)
+        )
+        # exact to rounding: |v| ~ 1, weights ~ 1/(n dt)^1 -> error ~ 1e-13
+        assert est == pytest.approx(vs[k], abs=1e-9)
+
+
+def test_ip_error_obeys_the_exact_discrete_design_on_the_ultra_local_model():
+    # Plant y' = F0 + alpha u exactly (b = alpha, F constant), ramp reference: F_hat = F0 exactly
+    # and, within a held interval, e' = -Kp e_k, so e_{k+1} = (1 - Kp dt) e_k (closed form).
+    dt, alpha, kp, f0, slope = 0.01, 2.5, 6.0, 0.7, 0.4
+    c = IP(alpha=alpha, kp=kp, dt=dt, window=6)
+    y = 1.0
+    errs = []
+    for k in range(80):
+        t = k * dt
+        u = c.step(y, slope * t, slope)
+        if c.status.window_full:
+            assert c.status.f_hat == pytest.approx(f0, abs=1e-9)  # exact estimator, rounding
+            errs.append(y - slope * t)
+        y += (f0 + alpha * u) * dt
+    errs = np.array(errs)
+    np.testing.assert_allclose(errs[1:], (1.0 - kp * dt) * errs[:-1], rtol=0, atol=1e-10)
+
+
+@settings(max_examples=30, deadline=None, derandomize=True)
+@given(
+    alpha=st.floats(0.2, 5.0) | st.floats(-5.0, -0.2),
+    kp_dt=st.floats(0.01, 0.5),
+    dt=st.floats(1e-3, 0.05),
+    window=st.integers(2, 20),
+    f0=st.floats(-10.0, 10.0),
+    slope=st.floats(-2.0, 2.0),
+)
+def test_ip_exact_discrete_design_property(alpha, kp_dt, dt, window, f0, slope):
+    # same closed form as above over random (alpha of either sign, gain, sample time, window)
+    kp = kp_dt / dt
+    c = IP(alpha=alpha, kp=kp, dt=dt, window=window)
+    y, errs = 1.0, []
+    for k in range(window + 15):
+        u = c.step(y, slope * k * dt, slope)
+        if c.status.window_full:
+            errs.append(y - slope * k * dt)
+        y += (f0 + alpha * u) * dt
+    errs = np.array(errs)
+    # rounding: |F0| <= 10 and weights ~ 1/(window dt) up to 1e3 -> errors ~ 1e-10 in e
+    np.testing.assert_allclose(errs[1:], (1.0 - kp * dt) * errs[:-1], rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("derivative", ["model", "algebraic"])
+def test_ipd_error_obeys_the_exact_discrete_design_on_the_ultra_local_model(derivative):
+    # y'' = F0 + alpha u exactly, parabolic reference. With the "model" derivative e' is exact,
+    # so over one held interval e'' = -Kp e_k - Kd e'_k: [e, e']_{k+1} = Ad [e, e']_k with
+    # Ad = [[1 - Kp dt^2/2, dt - Kd dt^2/2], [-Kp dt, 1 - Kd dt]]. The "algebraic" derivative is
+    # exact on ramps only: on this run y is not a ramp and the recursion must NOT hold exactly
+    # (which shows the check discriminates).
+    dt, alpha, f0 = 0.01, 0.9, -1.3
+    g = error_dynamics_gains(2, natural_frequency=5.0, damping=0.8)
+    c = IPD(alpha=alpha, kp=g.kp, kd=g.kd, dt=dt, window=8, derivative=derivative)
+    y, v = 0.5, 0.0
+    ref = lambda t: (0.2 * t * t, 0.4 * t, 0.4)  # noqa: E731
+    states = []
+    for k in range(120):
+        t = k * dt
+        r, rd, rdd = ref(t)
+        u = c.step(y, r, rd, rdd)
+        if c.status.window_full:
+            assert c.status.f_hat == pytest.approx(f0, abs=1e-8)
+            states.append((y - r, v - rd))
+        acc = f0 + alpha * u
+        y, v = y + v * dt + 0.5 * acc * dt * dt, v + acc * dt
+    x = np.array(states)
+    ad = np.array([[1 - g.kp * dt**2 / 2, dt - g.kd * dt**2 / 2], [-g.kp * dt, 1 - g.kd * dt]])
+    pred = x[:-1] @ ad.T
+    if derivative == "model":
+        np.testing.assert_allclose(x[1:], pred, rtol=0, atol=1e-9)
+    else:
+        assert np.abs(x[1:] - pred).max() > 1e-5
+
+
+# ------------------------------------------------------------------------------------------
+# the estimator sees the APPLIED input (after rate limit and saturation)
+# ------------------------------------------------------------------------------------------
+def test_estimator_fed_with_applied_input_under_saturation_and_rate_limit():
+    # y' = F0 + alpha u exactly: F_hat must equal F0 at every step although the command is
+    # clipped and rate-limited most of the time (with the commanded u it would be off by
+    # alpha * (u_cmd - u_applied), O(1) here).
+    dt, alpha, f0 = 0.01, 1.0, 2.0
+    c = IPI(alpha=alpha, kp=8.0, ki=10.0, dt=dt, window=5, u_min=-1.0, u_max=0.5, rate_max=20.0)
+    y, n_sat, n_rate = 0.0, 0, 0
+    for k in range(300):
+        t = k * dt
+        r = 3.0 * math.sin(3.0 * t)
+        u = c.step(y, r, 9.0 * math.cos(3.0 * t))
+        st = c.status
+        assert -1.0 <= u <= 0.5
+        if st.window_full:
+            assert st.f_hat == pytest.approx(f0, abs=1e-9)
+        n_sat += st.saturated != 0
+        n_rate += st.rate_limited != 0
+        y += (f0 + alpha * u) * dt
+    assert n_sat > 50 and n_rate > 0  # the limits did bind
+
+
+def test_rate_limit_and_saturation_are_respected():
+    dt, rate = 0.01, 5.0
+    c = IP(alpha=1.0, kp=50.0, dt=dt, window=3, rate_max=rate, u_min=-2.0, u_max=2.0, u0=0.3)
+    prev = 0.3
+    y = 0.0
+    for k in range(200):
+        u = c.step(y, 10.0 * (k // 50 % 2) - 5.0)
+        assert abs(u - prev) <= rate * dt + 1e-12
+        assert -2.0 <= u <= 2.0
+        prev = u
+        y += (-y + u) * dt
+
+
+# ------------------------------------------------------------------------------------------
+# start-up, non-finite samples, reset, multi-loop, compiled use
+# ------------------------------------------------------------------------------------------
+def test_bumpless_start_holds_u0_until_the_window_is_full():
+    c = IP(alpha=1.0, kp=1.0, dt=0.1, window=7, u0=0.25, u_max=0.2)
+    outs = [c.step(float(k), 0.0) for k in range(6)]
+    assert outs == [0.2] * 6  # u0 clipped to u_max, held while window not full
+    assert not c.status.window_full and c.status.samples == 6
+    c.step(6.0, 0.0)
+    assert c.status.window_full
+
+
+def test_nonfinite_measurement_holds_output_counts_and_flags():
+    dt = 0.01
+    c = IP(alpha=1.0, kp=4.0, dt=dt, window=5)
+    assert c.step(float("nan"), 1.0) == 0.0  # before any finite sample: u0 held
+    assert c.status.n_nonfinite == 1 and c.status.nonfinite and c.status.samples == 0
+    y = 0.0
+    for k in range(30):
+        u = c.step(y, 1.0)
+        y += (0.5 + u) * dt
+    u_last = u
+    for bad in (float("nan"), float("inf"), -float("inf")):
+        assert c.step(bad, 1.0) == u_last
+        assert c.status.nonfinite
+    assert c.step(y, float("nan")) == u_last  # a non-finite reference is held as well
+    assert c.status.n_nonfinite == 5
+    # then it recovers: finite output, flag cleared, tracking resumes
+    for k in range(200):
+        u = c.step(y, 1.0)
+        assert math.isfinite(u)
+        y += (0.5 + u) * dt
+    assert not c.status.nonfinite and c.status.n_nonfinite == 5
+    assert abs(y - 1.0) < 1e-3  # constant F on y' = F + u: converges (exact estimator)
+
+
+@pytest.mark.parametrize("nu", [1, 2])
+def test_dropout_prediction_keeps_the_estimate_exact_on_the_ultra_local_model(nu):
+    # y^(nu) = F0 + alpha u exactly: the one-step prediction used for a missing sample is then
+    # exact (nu = 2: with the exact "model" derivative), so F_hat stays F0, to rounding, through
+    # and after a dropout of 3 samples.
+    dt, alpha, f0 = 0.01, 2.0, -0.4
+    if nu == 1:
+        c = IP(alpha=alpha, kp=3.0, dt=dt, window=6)
+    else:
+        c = IPD(alpha=alpha, kp=9.0, kd=6.0, dt=dt, window=6, derivative="model")
+    y, v = 0.0, 0.3
+    n_checked = 0
+    for k in range(60):
+        meas = float("nan") if 20 <= k < 23 else y
+        u = c.step(meas, 0.5)
+        if c.status.window_full and k >= 20:
+            assert c.status.f_hat == pytest.approx(f0, abs=1e-8)
+            n_checked += 1
+        acc = f0 + alpha * u
+        if nu == 1:
+            y += acc * dt
+        else:
+            y, v = y + v * dt + 0.5 * acc * dt * dt, v + acc * dt
+    assert n_checked == 40 and c.status.n_nonfinite == 3
+
+
+def _drive(c: IntelligentController, ys, refs) -> np.ndarray:
+    return np.array([c.step(y, r, rd, rdd) for y, (r, rd, rdd) in zip(ys, refs, strict=True)])
+
+
+def test_reset_then_same_inputs_gives_identical_outputs():
+    rng = np.random.default_rng(7)
+    ys = rng.normal(size=300)
+    ys[[40, 41, 100]] = np.nan
+    refs = rng.normal(size=(300, 3))
+    for c in (
+        IPI(alpha=1.3, kp=2.0, ki=1.0, dt=0.01, window=10, u_max=0.5, rate_max=30.0),
+        IPID(alpha=0.7, kp=9.0, ki=4.0, kd=6.0, dt=0.01, window=10, derivative="model", u_min=-1.0),
+    ):
+        first = _drive(c, ys, refs)
+        st1 = c.status
+        c.reset()
+        second = _drive(c, ys, refs)
+        np.testing.assert_array_equal(first, second)  # bitwise: same code, same inputs
+        assert c.status == st1
+
+
+def test_independent_instances_multi_loop():
+    rng = np.random.default_rng(11)
+    ys = rng.normal(size=(200, 2))
+    refs = rng.normal(size=(200, 3))
+    mk = (
+        lambda: IP(alpha=1.0, kp=2.0, dt=0.02, window=10),
+        lambda: IPD(alpha=2.0, kp=4.0, kd=4.0, dt=0.02, window=10),
+    )
+    alone = [_drive(m(), ys[:, i], refs) for i, m in enumerate(mk)]
+    a, b = mk[0](), mk[1]()
+    inter = np.array([(a.step(y0, *r), b.step(y1, *r)) for (y0, y1), r in zip(ys, refs)])
+    np.testing.assert_array_equal(inter[:, 0], alone[0])
+    np.testing.assert_array_equal(inter[:, 1], alone[1])
+
+
+@numba.njit(cache=False)
+def _compiled_loop(p, s, ys, refs, out):
+    intelligent_reset(p, s)
+    for k in range(ys.shape[0]):
+        out[k] = intelligent_step(p, s, ys[k], refs[k, 0], refs[k, 1], refs[k, 2])
+
+
+def test_compiled_kernel_callable_from_njit_matches_the_shell():
+    rng = np.random.default_rng(3)
+    ys = rng.normal(size=150)
+    refs = rng.normal(size=(150, 3))
+    c = IPID(alpha=1.1, kp=4.0, ki=1.0, kd=3.0, dt=0.01, window=7, derivative_window=5)
+    shell = _drive(c, ys, refs)
+    p = c.params_array
+    s = make_state(p)
+    out = np.empty(150)
+    _compiled_loop(p, s, ys, refs, out)
+    np.testing.assert_array_equal(out, shell)
+
+
+# ------------------------------------------------------------------------------------------
+# nu = 1 on y' = -a y^3 + b u (a, b unknown): first-order error dynamics
+# ------------------------------------------------------------------------------------------
+A_CUBIC, B_CUBIC, ALPHA_CUBIC = 1.0, 2.0, 1.5  # alpha/b = 0.75: alpha deliberately off
+
+
+def _run_cubic(c: IntelligentController, dt: float, t_end: float, y0: float):
+    ref = lambda t: (0.5 + 0.3 * math.sin(2.0 * t), 0.6 * math.cos(2.0 * t))  # noqa: E731
+    y = y0
+    out = []
+    for k in range(int(round(t_end / dt)) + 1):
+        t = k * dt
+        r, rd = ref(t)
+        u = c.step(y, r, rd)
+        st = c.status
+        out.append((t, y - r, st.f_hat, -A_CUBIC * y**3 + (B_CUBIC - ALPHA_CUBIC) * u, st.integral))
+        y = rk4(lambda x, u=u: -A_CUBIC * x**3 + B_CUBIC * u, y, dt / 4, 4)
+    return np.array(out)
+
+
+def _cubic_deviation(dt: float, window: int, ki_pole: float | None = None):
+    tau = 0.2
+    g = error_dynamics_gains(1, time_constant=tau, integral_pole=ki_pole)
+    c = IntelligentController(
+        IntelligentParams(nu=1, alpha=ALPHA_CUBIC, kp=g.kp, ki=g.ki, dt=dt, window=window)
+    )
+    o = _run_cubic(c, dt, 3.0, y0=1.5)
+    k0 = window - 1  # first step with a full window: the law starts here
+    t, e = o[k0:, 0] - o[k0, 0], o[k0:, 1]
+    if ki_pole is None:
+        ed = e[0] * np.exp(-t / tau)  # e' + Kp e = 0
+    else:
+        # state [I, e], I' = e, e' = -Kp e - Ki I, from the controller's own I at k0
+        amat = np.array([[0.0, 1.0], [-g.ki, -g.kp]])
+        ed = designed_error(amat, np.array([o[k0, 4], e[0]]), t, 1)
+    f_res = np.abs(o[k0:, 3] - o[k0:, 2]).max()  # sampled |F - F_hat|
+    return np.abs(e - ed).max(), abs(e[0]), f_res, tau
+
+
+@pytest.mark.parametrize("ki_pole", [None, 2.0], ids=["iP", "iPI"])
+def test_cubic_plant_error_follows_the_designed_first_order_dynamics(ki_pole):
+    dev, e0, f_res, tau = _cubic_deviation(0.01, 10, ki_pole)
+    # Stated tolerance: the designed error trajectory is followed within 10 % of the initial
+    # error (measured 4.9 % for the iP with T = 0.09 s, alpha = 0.75 b).
+    assert dev <= 0.10 * e0
+    if ki_pole is None:
+        # and within the bound that the error equation e' = -Kp e + (F - F_hat) implies,
+        # |e - e_design| <= tau * max|F - F_hat| (sampled; measured 0.035 vs bound 0.088)
+        assert dev <= tau * f_res
+    # the deviation comes from the estimator's lag: halving dt at the same window length
+    # (T halved) must shrink it; first order in T gives 0.5 asymptotically (measured 0.64 at
+    # this coarse step), 0.75 fails a deviation that does not vanish with T.
+    dev_half, *_ = _cubic_deviation(0.005, 10, ki_pole)
+    assert dev_half <= 0.75 * dev
+
+
+# ------------------------------------------------------------------------------------------
+# nu = 2 on a mass with viscous and Coulomb friction (mass unknown)
+# ------------------------------------------------------------------------------------------
+M_MASS, C_VISC, F_COUL = 2.0, 0.8, 1.5  # kg, N s/m, N
+
+
+def _run_mass(c: IntelligentController, dt: float, t_end: float):
+    x = np.array([0.3, 0.0])
+
+    def f(z, u):
+        return np.array([z[1], (u - C_VISC * z[1] - F_COUL * np.sign(z[1])) / M_MASS])
+
+    out = []
+    for k in range(int(round(t_end / dt)) + 1):
+        t = k * dt
+        r, rd, rdd = 0.5 * math.sin(t), 0.5 * math.cos(t), -0.5 * math.sin(t)
+        u = c.step(float(x[0]), r, rd, rdd)
+        out.append((t, x[0] - r, x[1] - rd, c.status.integral))
+        x = rk4(lambda z, u=u: f(z, u), x, dt / 10, 10)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("ki_pole", [None, 2.0], ids=["iPD", "iPID"])
+def test_mass_with_friction_error_follows_the_designed_second_order_dynamics(ki_pole):
+    dt, n, wn = 0.01, 10, 4.0
+    g = error_dynamics_gains(2, natural_frequency=wn, damping=1.0, integral_pole=ki_pole)
+    alpha = 1.0 / 1.2  # the controller guesses m = 1.2 kg (true 2 kg)
+    c = IntelligentController(
+        IntelligentParams(nu=2, alpha=alpha, kp=g.kp, ki=g.ki, kd=g.kd, dt=dt, window=n)
+    )
+    o = _run_mass(c, dt, 8.0)
+    k0 = n - 1
+    t, e, ed = o[k0:, 0] - o[k0, 0], o[k0:, 1], o[k0:, 2]
+    if ki_pole is None:
+        amat = np.array([[0.0, 1.0], [-g.kp, -g.kd]])
+        e_design = designed_error(amat, np.array([e[0], ed[0]]), t, 0)
+    else:
+        amat = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-g.ki, -g.kp, -g.kd]])
+        e_design = designed_error(amat, np.array([o[k0, 3], e[0], ed[0]]), t, 1)
+    dev = np.abs(e - e_design).max()
+    # Tolerance from the dominant disturbance: at each velocity reversal F jumps by
+    # 2 Fc / m; the estimator needs about a window to follow, an error impulse of about
+    # (2 Fc/m)(T/2), and the critically damped error responds to an impulse with a peak
+    # 1/(wn e). The e' lag and successive reversals add to it: factor 2 (measured 1.25-1.6x).
+    t_win = (n - 1) * dt
+    bound = 2.0 * (2.0 * F_COUL / M_MASS) * (t_win / 2.0) / (wn * math.e)
+    assert dev <= bound
+    assert dev <= 0.05 * abs(e[0])  # and within 5 % of the initial error (measured 3-4 %)
+
+
+# ------------------------------------------------------------------------------------------
+# gain x0.3 / x3 during the run, 0-2 samples of input delay: iP vs a classic PI
+# ------------------------------------------------------------------------------------------
+A_DRAG, B_NOM = 0.5, 2.0
+
+
+def run_gain_change(ctrl, factor: float, delay: int, dt: float = 0.01, t_end: float = 10.0):
+    """y' = -a y|y| + b(t) u(t - delay dt), b = B_NOM, then factor * B_NOM from t = 4 s.
+
+    Returns the max |e| over t in [1, t_end) (after the start-up)."""
+    y = 1.0
+    queue = [0.0] * delay
+    errs = []
+    for k in range(int(round(t_end / dt))):
+        t = k * dt
+        r, rd = 1.0 + 0.5 * math.sin(0.8 * t), 0.4 * math.cos(0.8 * t)
+        queue.append(ctrl.step(y, r, rd))
+        ua = queue.pop(0)
+        b = B_NOM * (1.0 if t < 4.0 else factor)
+        y = rk4(lambda x, b=b, ua=ua: -A_DRAG * x * abs(x) + b * ua, y, dt / 4, 4)
+        if not abs(y) < 1e6:
+            return math.inf
+        if t + dt >= 1.0:
+            errs.append(abs(y - 1.0 - 0.5 * math.sin(0.8 * (t + dt))))
+    return max(errs)
+
+
+def nominal_pi(dt: float) -> ClassicPI:
+    # tuned on the nominal plant linearised at y = 1: y' = -2a dy + b u; closed-loop
+    # characteristic polynomial s^2 + (2a + b Kc) s + b Kc / Ti = (s + 5)^2 (same 5 rad/s as
+    # the iP's Kp = 5 /s)
+    kc = (2 * 5.0 - 2 * A_DRAG) / B_NOM
+    return ClassicPI(kc=kc, ti=B_NOM * kc / 25.0, dt=dt)
+
+
+@pytest.mark.parametrize("factor", [0.3, 3.0])
+@pytest.mark.parametrize("delay", [0, 1, 2])
+def test_gain_change_and_input_delay_ip_keeps_tracking_and_beats_nominal_pi(factor, delay):
+    dt = 0.01
+    # alpha chosen at the top of the gain's range (2 b_nom): alpha/b stays in [0.67, 6.7],
+    # away from the low edge that the delay moves up (alpha = b_nom diverges here with a
+    # 1-sample delay once b = 3 b_nom: see the report / example)
+    ip = IP(alpha=2.0 * B_NOM, kp=5.0, dt=dt, window=10)
+    e_ip = run_gain_change(ip, factor, delay, dt)
+    e_pi = run_gain_change(nominal_pi(dt), factor, delay, dt)
+    # stated bound: 6 % of the reference's amplitude 0.5 (measured 0.014-0.027)
+    assert e_ip <= 0.03
+    # the paper's claim, checked: the iP's worst error is below the nominal PI's on the same
+    # run (measured PI 0.025-0.054)
+    assert e_ip < e_pi
+
+
+def test_low_alpha_with_delay_diverges_when_the_gain_triples():
+    # the other side of the previous test (a measured limitation, documented): alpha = b_nom,
+    # then b = 3 b_nom (alpha/b = 1/3) with a one-sample input delay
+    ip = IP(alpha=B_NOM, kp=5.0, dt=0.01, window=10)
+    assert run_gain_change(ip, 3.0, 1) > 1.0
+
+
+# ------------------------------------------------------------------------------------------
+# saturation: the integral does not wind up
+# ------------------------------------------------------------------------------------------
+def _smoothstep(t, t0, t1, a0, a1):
+    if t <= t0:
+        return a0, 0.0
+    if t >= t1:
+        return a1, 0.0
+    s = (t - t0) / (t1 - t0)
+    return a0 + (a1 - a0) * (3 * s * s - 2 * s**3), (a1 - a0) * (6 * s - 6 * s * s) / (t1 - t0)
+
+
+def _run_saturation(anti_windup: str, dt: float = 0.01, t_end: float = 7.0):
+    # y' = -y + 1.5 u with |u| <= 1 (reachable |y| <= 1.5); the reference goes to 3 (out of
+    # reach) and back to 1. Exact ZOH propagation of the linear plant.
+    g = error_dynamics_gains(1, time_constant=0.2, integral_pole=2.0)
+    c = IPI(alpha=2.0, kp=g.kp, ki=g.ki, dt=dt, window=10, u_min=-1.0, u_max=1.0,
+            anti_windup=anti_windup)
+    ref = lambda t: _smoothstep(t, 0.5, 1.0, 0.5, 3.0) if t < 3 else _smoothstep(  # noqa: E731
+        t, 3.0, 3.5, 3.0, 1.0
+    )
+    y, out = 0.5, []
+    ed = math.exp(-dt)
+    for k in range(int(round(t_end / dt))):
+        t = k * dt
+        r, rd = ref(t)
+        u = c.step(y, r, rd)
+        out.append((t, y - r, c.status.saturated, c.status.integral))
+        y = y * ed + 1.5 * u * (1.0 - ed)
+    return np.array(out), g
+
+
+def test_saturation_integral_does_not_wind_up():
+    o, g = _run_saturation("clamp")
+    sat = np.nonzero(o[:, 2])[0]
+    assert o[sat[0], 0] < 1.0 and o[sat[-1], 0] > 3.0  # the limit did bind for > 2 s
+    k_rel = sat[-1] + 1  # first unsaturated sample after the long saturation
+    t_rel = o[k_rel, 0]
+    # after release the error follows the designed iPI dynamics from its state at release:
+    # the frozen integral only adds the designed slow mode (pole -2 /s).
+    amat = np.array([[0.0, 1.0], [-g.ki, -g.kp]])
+    tt = o[k_rel:, 0] - t_rel
+    e_design = designed_error(amat, np.array([o[k_rel, 3], o[k_rel, 1]]), tt, 1)
+    assert np.abs(o[k_rel:, 1] - e_design).max() <= 0.05  # 2.5 % of the 2.0 reference swing
+    # stated recovery: |e| <= 0.02 (1 % of the swing) from 1.5 s after release on
+    late = o[:, 0] >= t_rel + 1.5
+    assert np.abs(o[late, 1]).max() <= 0.02
+    # without anti-windup the same run does not recover within the run (shows the test bites)
+    o_none, _ = _run_saturation("none")
+    assert np.abs(o_none[late, 1]).max() > 0.2
+
+
+# ------------------------------------------------------------------------------------------
+# the choice of alpha: y' = F(t) + b u, b unknown
+# ------------------------------------------------------------------------------------------
+def _alpha_run(ratio: float, estimator: str, window: int, b: float = 3.0, dt: float = 0.01,
+               t_end: float = 20.0) -> float:
+    """Max |e| over the second half; inf when |y| exceeds 1e6. F(t) = 0.2 + 0.3 sin t, exact ZOH
+    integral; reference sin(0.5 t)."""
+    c = IP(alpha=ratio * b, kp=2.0, dt=dt, window=window, estimator=estimator)
+    y, worst = 0.0, 0.0
+    nk = int(round(t_end / dt))
+    for k in range(nk):
+        t = k * dt
+        u = c.step(y, math.sin(0.5 * t), 0.5 * math.cos(0.5 * t))
+        y += 0.3 * (math.cos(t) - math.cos(t + dt)) + 0.2 * dt + b * u * dt
+        if not abs(y) < 1e6:
+            return math.inf
+        if k >= nk // 2:
+            worst = max(worst, abs(y - math.sin(0.5 * (t + dt))))
+    return worst
+
+
+def test_alpha_sweep_records_the_stable_range():
+    ratios = [0.2, 0.22, 0.24, 0.26, 0.3, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0]
+    worst = {r: _alpha_run(r, "algebraic", 10) for r in ratios}
+    # bounded and tracking over the issue's range 0.3 <= alpha/b <= 20: the second-half error
+    # stays below 40 % of the reference amplitude (measured: 0.006 up to alpha/b = 0.5, 0.14 at
+    # 10, 0.34 at 20: tracking slows as alpha/b grows, the estimator has to supply the missing
+    # (1 - b/alpha) part of the input through its lag)
+    for r in ratios:
+        if 0.3 <= r <= 20.0:
+            assert worst[r] < 0.4, (r, worst[r])
+    assert worst[0.5] < 0.01 and worst[1.0] < 0.01
+    # the lower edge (documented in the module docstring): diverges at 0.2, stable and tracking
+    # at 0.24 (the issue's reference figure) and 0.26
+    assert worst[0.2] == math.inf
+    assert worst[0.24] < 0.01 and worst[0.26] < 0.01
+    # the simple variant with window 2 (backward difference): the input recursion has the root
+    # 1 - b/alpha, stable iff alpha/b > 1/2 (closed form)
+    assert _alpha_run(0.45, "simple", 2) == math.inf
+    assert _alpha_run(0.55, "simple", 2) < 0.01
+    # mixed with a windowed derivative the simple variant diverges even at alpha = b (and at 2);
+    # it tracks from alpha/b = 3 on (measured 0.006)
+    assert _alpha_run(1.0, "simple", 10) == math.inf
+    assert _alpha_run(2.0, "simple", 10) == math.inf
+    assert _alpha_run(3.0, "simple", 10) < 0.01
