@@ -1,0 +1,186 @@
+"""Loading tracks: bundled names or user files, TUMFTM, plain x,y, recordings, LVMS bounds.
+
+References
+----------
+[TUM-db] TUMFTM racetrack-database (data/tracks/PROVENANCE.md).
+[rec] deep-dynamics LVMS recording and bounds (data/recordings/PROVENANCE.md).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from flatfree.tracks import _io
+from flatfree.tracks.geometry import DEFAULT_DS, DEFAULT_SMOOTHING_LENGTH, Track
+
+__all__ = ["TrackPoints", "read_track_points", "load_track", "lvms_centerline"]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class TrackPoints:
+    """Raw points of a track file, as read (no smoothing, no resampling).
+
+    Attributes
+    ----------
+    name, source : str
+    x, y : ndarray
+        Points [m].
+    w_left, w_right : ndarray
+        Distances to the left / right edge [m] (NaN when the file has none).
+    closed : bool or None
+        True when the file marks the loop by repeating its first point (that repeat is removed
+        from ``x, y``); None when the file does not say (``Track.from_points`` then decides).
+    """
+
+    name: str
+    source: str
+    x: np.ndarray
+    y: np.ndarray
+    w_left: np.ndarray
+    w_right: np.ndarray
+    closed: bool | None
+
+    def polyline_length(self, closed: bool) -> float:
+        """Length of the raw polyline [m], with the closing segment when ``closed``."""
+        x = np.append(self.x, self.x[0]) if closed else self.x
+        y = np.append(self.y, self.y[0]) if closed else self.y
+        return float(np.hypot(np.diff(x), np.diff(y)).sum())
+
+
+def _points_from_raw(raw: _io.RawData, name: str) -> TrackPoints:
+    x = raw.col("x")
+    y = raw.col("y")
+    if raw.fmt == "tum":
+        wr = raw.col("w_tr_right")
+        wl = raw.col("w_tr_left")
+        for arr, col in ((wr, "w_tr_right_m"), (wl, "w_tr_left_m")):
+            if (arr < 0).any():
+                i = int(np.flatnonzero(arr < 0)[0])
+                raise ValueError(
+                    f"{raw.where(i)}, column {col!r}: width {float(arr[i])!r} m must be >= 0"
+                )
+    else:
+        wr = np.full_like(x, np.nan)
+        wl = np.full_like(x, np.nan)
+    closure = _io.validate_polyline(x, y, raw.where, raw.source, short=raw.line)
+    if closure:
+        x, y, wl, wr = x[:-1], y[:-1], wl[:-1], wr[:-1]
+    return TrackPoints(name, raw.source, x, y, wl, wr, True if closure else None)
+
+
+def lvms_centerline() -> TrackPoints:
+    """Centerline of the LVMS oval from the bundled bound files [rec].
+
+    For each point of the inner bound, the foot point on the outer bound (nearest vertex, then
+    the nearest of its two adjacent segments) gives the local width; the centerline point is
+    the midpoint, and each side gets half the width. Orientation: counter-clockwise, the
+    direction the recording drives (PROVENANCE.md), so the inner bound is on the left.
+    """
+    pts = []
+    for fname in _io.LVMS_BOUNDS:
+        raw = _io.read_csv(_io.bundled_recording_file(fname), fname)
+        x, y = raw.col("x"), raw.col("y")
+        if _io.validate_polyline(x, y, raw.where, raw.source, short=raw.line):
+            x, y = x[:-1], y[:-1]
+        pts.append(np.column_stack([x, y]))
+    inner, outer = pts
+    tree = cKDTree(outer)
+    _, k = tree.query(inner)
+    n = outer.shape[0]
+    best = np.full(inner.shape[0], np.inf)
+    foot = np.empty_like(inner)
+    for a_off, b_off in ((-1, 0), (0, 1)):  # the two segments adjacent to the nearest vertex
+        a = outer[(k + a_off) % n]
+        b = outer[(k + b_off) % n]
+        ab = b - a
+        t = np.clip(np.einsum("ij,ij->i", inner - a, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+        p = a + t[:, None] * ab
+        d = np.hypot(*(inner - p).T)
+        better = d < best
+        best[better] = d[better]
+        foot[better] = p[better]
+    centre = 0.5 * (inner + foot)
+    half = 0.5 * best
+    area = 0.5 * np.sum(centre[:, 0] * np.roll(centre[:, 1], -1)
+                        - np.roll(centre[:, 0], -1) * centre[:, 1])
+    if area < 0:  # make it counter-clockwise
+        centre, half = centre[::-1], half[::-1]
+    src = f"{_io.LVMS_BOUNDS[0]} + {_io.LVMS_BOUNDS[1]} (midline)"
+    return TrackPoints(_io.LVMS_NAME, src, centre[:, 0].copy(), centre[:, 1].copy(),
+                       half.copy(), half.copy(), True)
+
+
+def read_track_points(name_or_path: str | Path, *, raceline: bool = False) -> TrackPoints:
+    """Read the raw points of a bundled track (name, case-insensitive) or of a CSV file.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        ``"Monza"``, ``"spa"``, ``"LVMS"``, a recording name (its driven path, see
+        :func:`load_track`), or the path of a TUMFTM, x,y or recording CSV file.
+    raceline : bool
+        Read the bundled race line instead of the centerline.
+
+    Raises
+    ------
+    ValueError
+        Unknown name, missing file, or a defective file (message with file and line).
+    """
+    file, display = _io.resolve(name_or_path, "raceline" if raceline else "track")
+    if file is None:
+        return lvms_centerline()
+    raw = _io.read_csv(file, display)
+    name = Path(display).stem
+    if raw.fmt == "recording":
+        from flatfree.tracks.recording import Recording
+
+        rec = Recording.from_raw(raw, name, bundled=not Path(name_or_path).is_file())
+        return rec.track_points()
+    return _points_from_raw(raw, name)
+
+
+def load_track(
+    name_or_path: str | Path,
+    *,
+    raceline: bool = False,
+    closed: bool | None = None,
+    ds: float = DEFAULT_DS,
+    smoothing_length: float = DEFAULT_SMOOTHING_LENGTH,
+) -> Track:
+    """Load a bundled track by name, or a user's track file, as a resampled :class:`Track`.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A bundled name (case-insensitive): Budapest, Catalunya, IMS, Monza, Norisring, Spa
+        (TUMFTM centerlines with widths [TUM-db]), ``"LVMS"`` (the oval of the recording, its
+        centerline built from the bound files), or a recording name such as
+        ``"LVMS_23_01_04_B"`` (the path driven on track, an open path); or a path to a CSV in
+        the TUMFTM format (x_m, y_m, w_tr_right_m, w_tr_left_m), plain x,y, or the recording
+        format. A user's file goes through exactly the same steps as a bundled one.
+    raceline : bool
+        Load the TUMFTM minimum-curvature race line (no widths) instead of the centerline.
+    closed : bool, optional
+        Override the loop detection (see :meth:`Track.from_points`).
+    ds, smoothing_length : float
+        Resampling step and smoothing cut-off wavelength [m] (see :meth:`Track.from_points`).
+
+    Returns
+    -------
+    Track
+
+    Notes
+    -----
+    The bundled centerlines derive from OpenStreetMap data: credit "(c) OpenStreetMap
+    contributors" (data/tracks/PROVENANCE.md). Licenses: LGPL-3.0 (tracks), GPL-3.0 (recording).
+    """
+    pts = read_track_points(name_or_path, raceline=raceline)
+    c = closed if closed is not None else pts.closed
+    name = f"{pts.name} raceline" if raceline else pts.name
+    return Track.from_points(pts.x, pts.y, w_left=pts.w_left, w_right=pts.w_right, closed=c,
+                             ds=ds, smoothing_length=smoothing_length, name=name,
+                             source=pts.source)

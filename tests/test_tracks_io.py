@@ -1,0 +1,278 @@
+"""Track/recording files: bundled data intact and loadable, user files, and every bad-file error.
+
+Reference values come from the PROVENANCE.md files shipped next to the data (parsed here, not
+copied), i.e. from the people who copied and checked the data, not from this code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import flatfree.tracks as T
+
+DATA = resources.files("flatfree") / "data"
+
+
+def _provenance_table(text: str, section: str) -> dict[str, dict[str, float]]:
+    """Rows of the markdown table that follows ``### <section>`` in a PROVENANCE.md."""
+    block = text.split(f"### {section}", 1)[1].split("\n#", 1)[0]
+    rows = [ln for ln in block.splitlines() if ln.startswith("|")]
+    head = [c.strip() for c in rows[0].strip("|").split("|")]
+    out = {}
+    for ln in rows[2:]:
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        out[cells[0]] = {"points": int(cells[head.index("points")]),
+                         "length": float(cells[head.index("length [m]")])}
+    return out
+
+
+TRACKS_PROV = (DATA / "tracks" / "PROVENANCE.md").read_text(encoding="utf-8")
+REC_PROV = (DATA / "recordings" / "PROVENANCE.md").read_text(encoding="utf-8")
+CENTER = _provenance_table(TRACKS_PROV, "Centerlines")
+RACELINE = _provenance_table(TRACKS_PROV, "Race lines")
+
+
+# ---------------------------------------------------------------------------------------------
+# bundled data
+# ---------------------------------------------------------------------------------------------
+def test_package_data_is_reachable_with_licenses():
+    for rel in ("README.md", "tracks/LICENSE", "tracks/COPYING.GPL-3", "tracks/PROVENANCE.md",
+                "recordings/LICENSE", "recordings/PROVENANCE.md"):
+        f = DATA.joinpath(*rel.split("/"))
+        assert f.is_file(), rel
+    readme = (DATA / "README.md").read_text(encoding="utf-8")
+    assert "OpenStreetMap contributors" in readme
+    assert "LGPL-3.0" in readme and "GPL-3.0" in readme
+
+
+@pytest.mark.parametrize("folder", ["tracks", "recordings"])
+def test_bundled_files_are_byte_identical_to_provenance(folder):
+    """The data must be shipped UNCHANGED: compare with the sha256 sums listed upstream."""
+    text = (DATA / folder / "PROVENANCE.md").read_text(encoding="utf-8")
+    sums = re.findall(r"^([0-9a-f]{64})\s+(\S+)$", text, flags=re.M)
+    assert len(sums) >= 4
+    for digest, rel in sums:
+        data = DATA.joinpath(folder, *rel.split("/")).read_bytes()
+        assert hashlib.sha256(data).hexdigest() == digest, rel
+
+
+def test_names():
+    assert T.track_names() == ["Budapest", "Catalunya", "IMS", "LVMS", "Monza", "Norisring", "Spa"]
+    assert T.raceline_names() == ["Budapest", "Catalunya", "IMS", "Monza", "Norisring", "Spa"]
+    assert T.recording_names() == ["LVMS_23_01_04_B"]
+
+
+@pytest.mark.parametrize("name", sorted(CENTER))
+def test_every_bundled_centerline_loads_and_matches_provenance(name):
+    pts = T.read_track_points(name)
+    assert len(pts.x) == CENTER[name]["points"]  # nothing dropped
+    # the raw polyline is what PROVENANCE measured (printed to 0.1 m)
+    assert pts.polyline_length(True) == pytest.approx(CENTER[name]["length"], abs=0.051)
+    trk = T.load_track(name)
+    assert trk.closed
+    # issue 4: the length matches PROVENANCE.md within 1 %
+    assert trk.length == pytest.approx(CENTER[name]["length"], rel=0.01)
+    assert np.isfinite(trk.w_left).all() and np.isfinite(trk.w_right).all()
+    assert abs(trk.turning_number) == pytest.approx(1.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", sorted(RACELINE))
+def test_every_bundled_raceline_loads_and_matches_provenance(name):
+    trk = T.load_track(name, raceline=True)
+    assert len(T.read_track_points(name, raceline=True).x) == RACELINE[name]["points"]
+    assert trk.length == pytest.approx(RACELINE[name]["length"], rel=0.01)
+    assert np.isnan(trk.w_left).all()  # a race line file has no widths: unknown, not invented
+
+
+def test_lvms_centerline_from_bounds():
+    """The bounds are 15.0 m apart (PROVENANCE); the midline of two offset curves of a
+    convex loop is as long as the mean of the two bounds."""
+    m_in = re.search(r"lvms_inner_bound\.csv: points \d+, cols 2, length ([\d.]+) m", REC_PROV)
+    m_out = re.search(r"lvms_outer_bound\.csv: points \d+, cols 2, length ([\d.]+) m", REC_PROV)
+    expected = 0.5 * (float(m_in.group(1)) + float(m_out.group(1)))
+    trk = T.load_track("lvms")
+    assert trk.closed and trk.turning_number == pytest.approx(1.0, abs=1e-9)  # counter-clockwise
+    assert trk.length == pytest.approx(expected, rel=0.01)
+    # 15.0 m wide: half on each side (bounds spaced 1 m: foot points exact to ~1 cm)
+    assert np.allclose(trk.w_left, 7.5, atol=0.05) and np.allclose(trk.w_right, 7.5, atol=0.05)
+
+
+def test_names_are_case_insensitive_and_a_user_copy_loads_the_same(tmp_path):
+    a = T.load_track("Norisring")
+    b = T.load_track("NORISRING")
+    c = T.load_track("norisring.csv")
+    f = tmp_path / "my_track.csv"
+    f.write_bytes((DATA / "tracks" / "Norisring.csv").read_bytes())
+    d = T.load_track(f)
+    e = T.load_track(str(f))
+    for other in (b, c, d, e):
+        np.testing.assert_array_equal(a.geometry, other.geometry)
+    assert d.name == "my_track"
+
+
+def test_unknown_name_lists_the_valid_ones():
+    with pytest.raises(ValueError, match=r"unknown track 'Nurburgring'.*Monza"):
+        T.load_track("Nurburgring")
+    with pytest.raises(ValueError, match="file not found"):
+        T.load_track("/nonexistent/dir/track.csv")
+
+
+def test_plain_xy_files_with_and_without_header(tmp_path):
+    th = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    rows = "\n".join(f"{30 * np.cos(t):.9f},{30 * np.sin(t):.9f}" for t in th)
+    for header in ("", "x,y\n", "# x_m,y_m\n"):
+        f = tmp_path / f"c{len(header)}.csv"
+        f.write_text(header + rows + "\n")
+        trk = T.load_track(f)
+        assert trk.closed  # end->start gap = one spacing
+        assert trk.length == pytest.approx(2 * np.pi * 30, rel=1e-3)
+
+
+def test_closing_repeat_marks_a_loop(tmp_path):
+    th = np.linspace(0, 2 * np.pi, 9)  # last point == first
+    f = tmp_path / "loop.csv"
+    f.write_text("\n".join(f"{float(10 * np.cos(t))!r},{float(10 * np.sin(t))!r}" for t in th))
+    pts = T.read_track_points(f)
+    assert pts.closed is True and len(pts.x) == 8
+
+
+def test_headerless_tum_file_reads_widths_in_tum_order(tmp_path):
+    f = tmp_path / "t.csv"
+    f.write_text("0,0,1,2\n5,0,1,2\n10,0,1,2\n15,0,1,2\n20,0,1,2\n")
+    pts = T.read_track_points(f)
+    assert (pts.w_right == 1).all() and (pts.w_left == 2).all()
+
+
+# ---------------------------------------------------------------------------------------------
+# bad files: each error names the file and the line
+# ---------------------------------------------------------------------------------------------
+GOOD = ["0.0,0.0,5.0,5.0", "5.0,0.0,5.0,5.0", "10.0,1.0,5.0,5.0", "15.0,3.0,5.0,5.0",
+        "20.0,6.0,5.0,5.0"]
+HEADER = "# x_m,y_m,w_tr_right_m,w_tr_left_m"
+
+
+def _write(tmp_path, lines, name="bad.csv"):
+    f = tmp_path / name
+    f.write_text("\n".join(lines) + "\n")
+    return f
+
+
+@pytest.mark.parametrize(
+    "lines, pattern",
+    [
+        # missing column (header names only three of the four TUMFTM columns)
+        (["# x_m,y_m,w_tr_right_m", *[",".join(r.split(",")[:3]) for r in GOOD]],
+         r"bad\.csv, line 1: missing column\(s\) \['w_tr_left_m'\]"),
+        # a row with a missing cell
+        ([HEADER, *GOOD[:2], "10.0,1.0,5.0", *GOOD[3:]], r"bad\.csv, line 4: expected 4 values"),
+        # non-numeric cell
+        ([HEADER, *GOOD[:3], "15.0,abc,5.0,5.0", GOOD[4]],
+         r"bad\.csv, line 5, column 'y': 'abc' is not a number"),
+        # NaN
+        ([HEADER, GOOD[0], "5.0,nan,5.0,5.0", *GOOD[2:]],
+         r"bad\.csv, line 3, column 'y': 'nan' is not finite"),
+        # infinity in a width
+        ([HEADER, *GOOD[:4], "20.0,6.0,inf,5.0"],
+         r"bad\.csv, line 6, column 'w_tr_right': 'inf' is not finite"),
+        # fewer than 4 points
+        ([HEADER, *GOOD[:3]], r"bad\.csv: 3 point\(s\); a path needs at least 4 \(last at "
+                              r"line 4\)"),
+        # repeated point
+        ([HEADER, *GOOD[:3], GOOD[2], *GOOD[3:]],
+         r"bad\.csv, line 5: repeated point \(10\.0, 1\.0\) equals the previous point "
+         r"\(line 4\)"),
+        # zero-length segment (distinct numbers, 1e-9 m apart)
+        ([HEADER, *GOOD[:3], "10.000000001,1.0,5.0,5.0", *GOOD[3:]],
+         r"bad\.csv, line 5: zero-length segment from the previous point \(line 4\): "
+         r"length 1e-09 m < 1e-06 m"),
+        # negative width
+        ([HEADER, *GOOD[:2], "10.0,1.0,-1.0,5.0", *GOOD[3:]],
+         r"bad\.csv, line 4, column 'w_tr_right_m': width -1\.0 m must be >= 0"),
+        # no header and an unknown number of columns
+        (["0,0,1", "1,0,1", "2,0,1", "3,0,1"], r"bad\.csv, line 1: 3 columns and no header"),
+        # header without x or y
+        (["a,b", "0,0", "1,0", "2,1", "3,3"],
+         r"bad\.csv, line 1: missing column\(s\) \['x', 'y'\]"),
+        # empty
+        (["# x_m,y_m"], r"bad\.csv: no data rows"),
+    ],
+    ids=["missing-column", "short-row", "non-numeric", "nan", "inf", "too-few", "repeated",
+         "zero-length", "negative-width", "no-header", "no-xy", "empty"],
+)
+def test_bad_track_files(tmp_path, lines, pattern):
+    f = _write(tmp_path, lines)
+    with pytest.raises(ValueError, match=pattern):
+        T.load_track(f)
+
+
+def test_comment_and_blank_lines_keep_line_numbers(tmp_path):
+    lines = [HEADER, "", "# a comment", *GOOD[:2], "", "10.0,oops,5.0,5.0", *GOOD[3:]]
+    with pytest.raises(ValueError, match=r"line 7, column 'y'"):
+        T.load_track(_write(tmp_path, lines))
+
+
+def test_in_memory_points_are_checked_too():
+    x = np.array([0.0, 1.0, 1.0, 2.0, 3.0])
+    y = np.array([0.0, 0.0, 0.0, 1.0, 2.0])
+    with pytest.raises(ValueError, match=r"point 2: repeated point"):
+        T.Track.from_points(x, y)
+    with pytest.raises(ValueError, match=r"point 1: x is not finite"):
+        T.Track.from_points([0, np.nan, 2, 3], [0, 0, 0, 0])
+    with pytest.raises(ValueError, match=r"ds = -1.0 m"):
+        T.Track.from_points([0, 1, 2, 3], [0, 1, 2, 3], ds=-1.0)
+
+
+REC_HEADER = ("# time(s),x(m),y(m),vx(m/s),vy(m/s),phi(rad),delta(rad),omega(rad/s),ax(m/s^2),"
+              "deltadelta(rad/s),wheel_fl(kmph),wheel_fr(kmph),wheel_rl(kmph),wheel_rr(kmph),"
+              "roll(rad),throttle_ped_cmd(%),brake_ped_cmd(kPa)")
+
+
+def _rec_rows(n=6):
+    return [",".join([f"{100 + 0.04 * k:.2f}", f"{k * 1.0}", "0", "25", "0", "0", "0.01", "0",
+                      "0", "0", "90", "90", "90", "90", "0", "10", "0"]) for k in range(n)]
+
+
+def test_recording_file_errors(tmp_path):
+    rows = _rec_rows()
+    rows[3] = rows[3].replace("100.12", "100.04", 1)  # time goes back
+    f = _write(tmp_path, [REC_HEADER, *rows], "rec.csv")
+    with pytest.raises(ValueError, match=r"rec\.csv, line 5, column 'time': 100\.04 s does not "
+                                         r"increase \(previous 100\.08 s at line 4\)"):
+        T.load_recording(f)
+    f = _write(tmp_path, ["# time(s),x(m),y(m),vx(m/s)", "0,0,0,1", "1,1,0,1", "2,2,0,1",
+                          "3,3,0,1"], "rec2.csv")
+    with pytest.raises(ValueError, match=r"rec2\.csv, line 1: recording header lacks column\(s\) "
+                                         r"\['phi', 'delta'\]"):
+        T.load_recording(f)
+    f = _write(tmp_path, [HEADER, *GOOD], "notrec.csv")
+    with pytest.raises(ValueError, match="not a recording"):
+        T.load_recording(f)
+
+
+def test_user_recording_loads_like_the_bundled_one(tmp_path):
+    f = _write(tmp_path, [REC_HEADER, *_rec_rows(40)], "mine.csv")
+    rec = T.load_recording(f)
+    assert len(rec) == 40 and rec.bounds is None
+    assert rec.t[0] == 0.0 and rec.t0_epoch == pytest.approx(100.0)
+    np.testing.assert_allclose(rec["vx"], 25.0)
+
+
+def test_free_text_comments_are_not_headers(tmp_path):
+    f = _write(tmp_path, ["# my own track, surveyed 2024", "# units: metres", HEADER, *GOOD],
+               "commented.csv")
+    pts = T.read_track_points(f)
+    assert (pts.w_left == 5.0).all() and len(pts.x) == 5
+    f = _write(tmp_path, ["# surveyed by hand, in metres, 2024", "0,0", "5,0", "10,1", "15,3"],
+               "xy.csv")
+    assert len(T.read_track_points(f).x) == 4
+
+
+def test_short_first_row_is_reported_against_the_header(tmp_path):
+    f = _write(tmp_path, [HEADER, "0.0,0.0,5.0", *GOOD[1:]])
+    with pytest.raises(ValueError, match=r"bad\.csv, line 2: expected 4 values"):
+        T.load_track(f)
