@@ -1,10 +1,63 @@
 """flatfree: flatness-based and model-free longitudinal and lateral control of autonomous cars.
 
 Conventions: ISO 8855 axes (x forward, y left, z up), SI units inside, reference point the CoG.
+
+The names below are the curated public API. They are imported on first use (PEP 562), so
+``import flatfree`` stays cheap and has no side effects; subpackages hold the rest:
+:mod:`flatfree.vehicles`, :mod:`flatfree.tires`, :mod:`flatfree.models`,
+:mod:`flatfree.estimators`, :mod:`flatfree.controllers`, :mod:`flatfree.tracks`.
 """
 
-from flatfree.vehicles import TireParams, VehicleParams, load_tire, load_vehicle
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __version__ = "0.1.0.dev0"
 
-__all__ = ["TireParams", "VehicleParams", "load_tire", "load_vehicle", "__version__"]
+_API = {
+    # vehicles and tyres
+    "VehicleParams": "flatfree.vehicles",
+    "TireParams": "flatfree.vehicles",
+    "load_vehicle": "flatfree.vehicles",
+    "load_tire": "flatfree.vehicles",
+    # models
+    "TenDoF": "flatfree.models.tendof",
+    "Bicycle3DoFParams": "flatfree.models.bicycle3dof",
+    # estimation
+    "differentiate": "flatfree.estimators",
+    # control
+    "IP": "flatfree.controllers.intelligent",
+    "IPI": "flatfree.controllers.intelligent",
+    "IPD": "flatfree.controllers.intelligent",
+    "IPID": "flatfree.controllers.intelligent",
+    "IntelligentParams": "flatfree.controllers.intelligent",
+    "FlatnessController": "flatfree.controllers.flatness_control",
+    "FlatnessControlParams": "flatfree.controllers.flatness_control",
+    # references
+    "load_track": "flatfree.tracks",
+    "load_recording": "flatfree.tracks",
+    "make_reference": "flatfree.tracks",
+    "SpeedLimits": "flatfree.tracks",
+    # evaluation
+    "Scenario": "flatfree.scenario",
+    "load_scenario": "flatfree.scenario",
+    "Trajectory": "flatfree.trajectory",
+    "compute_metrics": "flatfree.metrics",
+}
+
+__all__ = sorted(_API) + ["__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    try:
+        module = _API[name]
+    except KeyError:
+        raise AttributeError(f"module 'flatfree' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_API))
