@@ -749,3 +749,32 @@ def test_bad_references_raise():
         FlatReference(t=t, y1=v, y1_dot=z, y2=z, y2_dot=z, y2_ddot=np.full_like(t, np.nan))
     with pytest.raises(ValueError, match="expected FlatReference"):
         FlatnessController(_fp(), {"t": t})
+
+
+def test_track_reference_through_the_tracks_module_closes_the_loop():
+    """Issue 5 end to end: a real track (Norisring, 15 m/s) -> tracks.reference_states_3dof ->
+    flat_reference_from_lateral -> closed loop on the 3DoF model with exact parameters.
+
+    The track reference is not exactly feasible for the sampled loop (r_dot has steps where the
+    path curvature's derivative jumps), so the errors are not at rounding level: measured
+    (2026-11-22) max over 5-60 s |e_vx| 1.0e-4 m/s, |e_vy| 3.2e-4 m/s, |e_r| 5.7e-4 rad/s;
+    asserted below 2e-3 in SI (3.5x the largest, for platform rounding in the long run).
+    The flat outputs of the reference are consistent with its states (rounding only).
+    """
+    from flatfree.tracks import load_track, make_reference, reference_states_3dof
+
+    dt = 0.001
+    ref = make_reference(load_track("Norisring"), 15.0, dt=dt)
+    lat = reference_states_3dof(ref, cf=P406.cf, cr=P406.cr, mass=P406.m, iz=P406.iz,
+                                lf=P406.lf, lr=P406.lr)
+    fref = flat_reference_from_lateral(P406, lat)
+    np.testing.assert_allclose(fref.y2, P406.lf * P406.m * lat.vy - P406.iz * lat.r,
+                               rtol=0, atol=1e-9 * np.abs(fref.y2).max())
+    n = int(60.0 / dt)
+    fp = FlatnessControlParams(model=P406, gains=GAINS, dt=dt)
+    x0 = np.array([lat.vx[0], lat.vy[0], lat.r[0]])
+    out = run(fp, fref, P406, x0)[:n]
+    assert np.all(np.isfinite(out)) and np.all(out[:, 5] == FCS.ok)
+    late = slice(int(5.0 / dt), n)
+    err = np.abs(out[late, :3] - np.column_stack([lat.vx, lat.vy, lat.r])[late])
+    assert err.max() < 2e-3, err.max(axis=0)
