@@ -4,9 +4,11 @@ Run as a script (``python benchmarks/bench_tendof.py``); it prints every figure 
 ``benchmarks/README.md``. Sections:
 
 1. a 60 s open-loop 10DoF maneuver at dt = 1 ms for each preset, after JIT warm-up (best of
-   5 runs): real-time factor and time per step (target >= 1000x real time on one core);
-2. where the time goes: one Magic Formula evaluation (flatfree.tires.mf_combined) timed in a
-   compiled loop over the loads and slips of that maneuver, against the whole right-hand side;
+   5 runs): real-time factor and time per step (target >= 1000x real time on one core), for
+   the default path (tyres in SIMD lanes) and the scalar reference path (tire_lanes=False);
+2. where the time goes: the 4-tyre Magic Formula (flatfree.tires.mf_combined4) and four scalar
+   mf_combined calls, timed in compiled loops over the loads and slips of that maneuver,
+   against the whole right-hand side;
 3. a second process start with a warm numba cache: time from the interpreter's first line to
    the first completed RK4 step (target < 2 s), measured with subprocesses;
 4. CommonRoad's 29-state MB model (pure Python) on a 5 s maneuver with fixed-step RK4 at 1 ms
@@ -32,8 +34,8 @@ import numpy as np
 from numba import njit
 from scipy.integrate import solve_ivp
 
-from flatfree.models.tendof import TenDoF, TenDoFState, stable_step
-from flatfree.tires import mf_combined
+from flatfree.models.tendof import TenDoF, TenDoFOptions, TenDoFState, stable_step
+from flatfree.tires import mf_combined, mf_combined4
 from flatfree.units import G
 from flatfree.vehicles import load_vehicle
 
@@ -77,51 +79,90 @@ def maneuver_60s(model: TenDoF, dt: float = 1e-3):
 # 1 and 2: throughput and where the time goes
 # --------------------------------------------------------------------------------------------
 @njit(cache=True)
-def _mf_loop(kappa, alpha, fz, tp_f, tp_r):
+def _mf4_loop(diag_rows, mu, tp_f, tp_r):
+    """mf_combined4 over recorded per-wheel (F_z, alpha, kappa) of a run, in the model's layout."""
+    lanes = np.zeros((4, 6))
     acc = 0.0
-    n = kappa.shape[0]
-    for k in range(n):
+    for k in range(diag_rows.shape[0]):
         for w in range(4):
-            fx, fy = mf_combined(kappa[k, w], alpha[k, w], fz[k, w], 1.0, tp_f if w < 2 else tp_r)
+            lanes[w, 0] = diag_rows[k, w, 0]
+            lanes[w, 3] = diag_rows[k, w, 3]
+            lanes[w, 4] = diag_rows[k, w, 4]
+            lanes[w, 5] = mu
+        mf_combined4(lanes, tp_f, tp_r)
+        acc += lanes[0, 1] + lanes[1, 2] + lanes[2, 1] + lanes[3, 2]
+    return acc
+
+
+@njit(cache=True)
+def _mf_loop(diag_rows, mu, tp_f, tp_r):
+    """The same inputs through four scalar mf_combined calls."""
+    acc = 0.0
+    for k in range(diag_rows.shape[0]):
+        for w in range(4):
+            fx, fy = mf_combined(diag_rows[k, w, 4], diag_rows[k, w, 3], diag_rows[k, w, 0], mu,
+                                 tp_f if w < 2 else tp_r)
             acc += fx + fy
+    return acc
+
+
+@njit(cache=True)
+def _copy_loop(diag_rows, mu, tp_f, tp_r):
+    """The loop of _mf4_loop without the tyre call (its overhead)."""
+    lanes = np.zeros((4, 6))
+    acc = 0.0
+    for k in range(diag_rows.shape[0]):
+        for w in range(4):
+            lanes[w, 0] = diag_rows[k, w, 0]
+            lanes[w, 3] = diag_rows[k, w, 3]
+            lanes[w, 4] = diag_rows[k, w, 4]
+            lanes[w, 5] = mu
+        acc += lanes[0, 4] + lanes[1, 3] + lanes[2, 0] + lanes[3, 4]
     return acc
 
 
 def throughput() -> dict[str, float]:
     print("1. 60 s open-loop 10DoF maneuver, RK4 at dt = 1 ms, one core, after warm-up (best of 5)")
+    print("   default (tyres in SIMD lanes) and, in brackets, the scalar reference path "
+          "(TenDoFOptions(tire_lanes=False))")
     out = {}
     for name in PRESETS:
         m = TenDoF(load_vehicle(name))
+        ref = TenDoF(load_vehicle(name), TenDoFOptions(tire_lanes=False))
         x0, u = maneuver_60s(m)
         xs = np.empty((u.shape[0] + 1, len(S)))
         m.simulate(x0, u, 1e-3, out=xs)  # warm-up (compiles or loads the cache)
+        wall_ref = _best(lambda r=ref, x0=x0, u=u, xs=xs: r.simulate(x0, u, 1e-3, out=xs))
         wall = _best(lambda m=m, x0=x0, u=u, xs=xs: m.simulate(x0, u, 1e-3, out=xs))
         rt = 60.0 / wall
         out[name] = rt
         print(f"   {name:13s} {wall * 1e3:7.1f} ms  = {rt:6.0f}x real time, "
-              f"{wall / u.shape[0] * 1e6:5.2f} us/step  (v: {xs[:, S.vx].min():.1f}-"
+              f"{wall / u.shape[0] * 1e6:5.2f} us/step  (reference path: {60.0 / wall_ref:4.0f}x,"
+              f" {wall_ref / u.shape[0] * 1e6:4.2f} us/step; v: {xs[:, S.vx].min():.1f}-"
               f"{xs[:, S.vx].max():.1f} m/s)")
         if name == "peugeot406":
             d = m.diagnostics(xs[1:], u)
-            kap = np.ascontiguousarray(d["kappa"])
-            alp = np.ascontiguousarray(d["alpha"])
-            fz = np.ascontiguousarray(d["fz"])
-            _mf_loop(kap[:10], alp[:10], fz[:10], m.tire_front, m.tire_rear)
-            mf = _best(lambda: _mf_loop(kap, alp, fz, m.tire_front, m.tire_rear))
-            per_mf = mf / (4 * kap.shape[0])
+            rows = np.ascontiguousarray(np.stack([d[k] for k in ("fz", "fx", "fy", "alpha",
+                                                                  "kappa", "kappa_plain")], -1))
+            for f in (_mf4_loop, _mf_loop, _copy_loop):
+                f(rows[:10], 1.0, m.tire_front, m.tire_rear)
+            t_copy = _best(lambda: _copy_loop(rows, 1.0, m.tire_front, m.tire_rear))
+            t4 = _best(lambda: _mf4_loop(rows, 1.0, m.tire_front, m.tire_rear)) - t_copy
+            t1 = _best(lambda: _mf_loop(rows, 1.0, m.tire_front, m.tire_rear))
+            n = rows.shape[0]
             per_rhs = wall / (4 * u.shape[0])
-            print("2. where the time goes (peugeot406):")
+            print("2. where the time goes (peugeot406, inputs of the run above):")
             print(f"   one right-hand side: {per_rhs * 1e9:6.0f} ns (4 per RK4 step)")
-            print(f"   one mf_combined    : {per_mf * 1e9:6.0f} ns (4 per right-hand side) -> "
-                  f"{4 * per_mf / per_rhs:.0%} of the right-hand side")
-            print("   transcendental calls per mf_combined (pacejka2006 set, shifts 0): "
-                  "Fx0 exp+2 atan+sin, Fy0 atan+sin (K_y) + 2 atan+sin, G_xa sqrt+2 atan+cos, "
-                  "G_yk sqrt+2 atan+cos = 15 + 2 sqrt")
-            print("   rest of the right-hand side per call: 4 atan (slip angles), 4 sqrt (smooth "
-                  "signs), sin/cos of psi and delta, sin of roll and pitch = 14")
-            cap = 60.0 / (16 * per_mf * 6e4)
-            print(f"   => the tyres alone cost {16 * per_mf * 1e6:.2f} us per step: with a zero-"
-                  f"cost model the RK4 loop would still run at most {cap:.0f}x real time")
+            print(f"   one mf_combined4   : {t4 / n * 1e9:6.0f} ns for 4 tyres, timed alone (1 per "
+                  f"right-hand side, = {t4 / n / per_rhs:.0%} of it; inside the right-hand side it "
+                  f"overlaps with the scalar work); 4 scalar mf_combined: {t1 / n * 1e9:.0f} ns")
+            print("   elementary functions per tyre (pacejka2006 set, shifts 0): 8 atan, 2 sin, "
+                  "2 cos, 1 exp, 2 sqrt; in the lanes they are polynomials (flatfree._vecmath) "
+                  "evaluated for 4 tyres per instruction")
+            print("   rest of the right-hand side: 4 slip-angle atan (in the lanes), 4-8 sqrt "
+                  "(smooth signs), sincos of psi and delta, sin of roll and pitch (libm)")
+            print(f"   => the tyres cost {16 * t4 / n / 4 * 1e6:.2f} us per step with lanes, "
+                  f"{16 * t1 / n / 4 * 1e6:.2f} us with scalar calls")
     return out
 
 

@@ -1,19 +1,29 @@
 """Tyre kernels: nanoseconds per call inside a compiled loop (best of 5 repetitions).
 
-The 10DoF model evaluates ``mf_combined`` four tyres x four RK4 stages per plant step, so its
-cost bounds the open-loop real-time factor. Results: see README.md in this folder.
+The 10DoF model evaluates the combined-slip Magic Formula for four tyres at each of the four
+RK4 stages of a plant step: as four scalar ``mf_combined`` calls (the reference path) or as
+one ``mf_combined4`` call (four SIMD lanes, the default). Their cost bounds the open-loop
+real-time factor. Also timed: the vectorisable elementary functions of ``flatfree._vecmath``
+against libm's, in a loop over an array, and whether the 4-lane loop compiles to packed
+vector instructions (``inspect_asm``). Results: see README.md in this folder.
 """
 
 from __future__ import annotations
 
+import math
+import re
 import time
 
+import numpy as np
 from numba import njit
 
-from flatfree import load_tire
-from flatfree.tires import mf_combined, mf_fx0, mf_fy0, slip_angle, slip_ratio
+from flatfree import _vecmath as vm
+from flatfree import load_tire, tires
+from flatfree.tires import mf_combined, mf_combined4, mf_fx0, mf_fy0, slip_angle, slip_ratio
 
 N = 2_000_000
+N4 = 500_000
+_NTP = tires._NTP
 
 
 @njit
@@ -59,13 +69,95 @@ def _loop_slips(n, v_min):
     return s
 
 
-def _best(f, *args) -> float:
+# ---- four tyres per call: the same inputs for the scalar and the lane kernel ----
+@njit
+def _fill(lanes, i):
+    for w in range(4):
+        lanes[w, 4] = -0.3 + 0.6 * ((i + 250 * w) % 1000) / 1000.0
+        lanes[w, 3] = -0.2 + 0.4 * ((i + 97 * w) % 977) / 977.0
+        lanes[w, 0] = 2000.0 + ((i + w) % 613)
+
+
+@njit
+def _loop4_empty(n, lanes, tpf, tpr):
+    s = 0.0
+    for i in range(n):
+        _fill(lanes, i)
+        s += lanes[0, 4] + lanes[3, 3]
+    return s
+
+
+@njit
+def _loop4_scalar(n, lanes, tpf, tpr):
+    s = 0.0
+    for i in range(n):
+        _fill(lanes, i)
+        for w in range(4):
+            fx, fy = mf_combined(lanes[w, 4], lanes[w, 3], lanes[w, 0], lanes[w, 5],
+                                 tpf if w < 2 else tpr)
+            s += fx + fy
+    return s
+
+
+@njit
+def _loop4_lanes(n, lanes, tpf, tpr):
+    s = 0.0
+    for i in range(n):
+        _fill(lanes, i)
+        mf_combined4(lanes, tpf, tpr)
+        s += lanes[0, 1] + lanes[1, 2] + lanes[2, 1] + lanes[3, 2]
+    return s
+
+
+# ---- elementary functions over an array ----
+def _array_loop(fn):
+    @njit
+    def run(x, out):
+        for i in range(x.size):
+            out[i] = fn(x[i])
+
+    return run
+
+
+def _best(f, n, *args) -> float:
     best = float("inf")
     for _ in range(5):
         t0 = time.perf_counter()
-        f(*args)
+        f(n, *args)
         best = min(best, time.perf_counter() - t0)
-    return best / args[0] * 1e9
+    return best / n * 1e9
+
+
+def _best_array(f, x, out) -> float:
+    best = float("inf")
+    for _ in range(5):
+        t0 = time.perf_counter()
+        f(x, out)
+        best = min(best, time.perf_counter() - t0)
+    return best / x.size * 1e9
+
+
+def vectorisation_report() -> None:
+    """Count packed and scalar double-precision arithmetic in the compiled 4-lane loop."""
+
+    @njit(error_model="numpy")
+    def lanes(d, tpf, tpr):
+        tires._mf_lanes_loop(d, vm.as_tuple(tpf, _NTP), vm.as_tuple(tpr, _NTP))
+
+    d = np.zeros((4, 6))
+    d[:, 0] = 3000.0
+    d[:, 5] = 1.0
+    tp = load_tire("pacejka2006_205_60R15").to_array()
+    lanes(d, tp, tp)
+    asm = lanes.inspect_asm(lanes.signatures[0])
+    ops = r"(?:mul|add|sub|div|sqrt|fmadd\d+|fnmadd\d+|fmsub\d+)"
+    ymm = len(re.findall(rf"\bv{ops}pd\s+[^\n]*%ymm", asm))
+    zmm = len(re.findall(rf"\bv{ops}pd\s+[^\n]*%zmm", asm))
+    xmm = len(re.findall(rf"\bv{ops}pd\s+[^\n]*%xmm", asm))
+    scalar = len(re.findall(rf"\bv{ops}sd\b", asm))
+    libm = re.findall(r"call\w*\s+.*\b(atan|sin|cos|exp)\b", asm)
+    print(f"4-lane loop (both variants): packed double arithmetic {ymm} ymm + {zmm} zmm + "
+          f"{xmm} xmm instructions, scalar {scalar}, libm calls {len(libm)}")
 
 
 def main() -> None:
@@ -77,6 +169,36 @@ def main() -> None:
             print(f"{name:24s} {label:18s} {_best(f, N, tp):7.1f} ns/call")
     _loop_slips(10, 2.0)
     print(f"{'':24s} {'slip_ratio + angle':18s} {_best(_loop_slips, N, 2.0):7.1f} ns/call")
+
+    print("four tyres (fl, fr: first set; rl, rr: second set), ns per 4 tyres, loop subtracted:")
+    cr = load_tire("commonroad").to_array()
+    pj = load_tire("pacejka2006_205_60R15").to_array()
+    for label, tpf, tpr in (("commonroad x2", cr, cr), ("pacejka2006 x2", pj, pj),
+                            ("pacejka2006 / commonroad", pj, cr)):
+        lanes = np.zeros((4, 6))
+        lanes[:, 5] = 1.0
+        res = {}
+        for f in (_loop4_empty, _loop4_scalar, _loop4_lanes):
+            f(10, lanes, tpf, tpr)
+            res[f] = _best(f, N4, lanes, tpf, tpr)
+        s = res[_loop4_scalar] - res[_loop4_empty]
+        v = res[_loop4_lanes] - res[_loop4_empty]
+        print(f"   {label:26s} 4 x mf_combined {s:6.1f} ns   mf_combined4 {v:6.1f} ns   "
+              f"-> {s / v:4.1f}x")
+
+    print("elementary functions over an array of 10^6 values, ns per value:")
+    rng = np.random.default_rng(1)
+    for name, dom in (("atan", (-5.0, 5.0)), ("sin", (-3.0, 3.0)), ("cos", (-3.0, 3.0)),
+                      ("exp", (-2.0, 2.0))):
+        x = rng.uniform(*dom, 1_000_000)
+        out = np.empty_like(x)
+        fv = _array_loop(getattr(vm, name))
+        fm = _array_loop(getattr(math, name))
+        fv(x[:10], out[:10])
+        fm(x[:10], out[:10])
+        print(f"   {name:5s} libm {_best_array(fm, x, out):5.2f}   _vecmath "
+              f"{_best_array(fv, x, out):5.2f}")
+    vectorisation_report()
 
 
 if __name__ == "__main__":

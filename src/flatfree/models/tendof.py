@@ -83,8 +83,9 @@ Model
    transfer is ``m h a_y + m_s h' g sin phi`` and the longitudinal ``m h a_x + F_D h_a``
    (as [VM] 5.2-5.3).
 4. Contact points and slips ([VM] 1.6): ``v_x,ij = vx - r y_j``, ``v_y,ij = vy + r x_i``,
-   rotated into wheel axes. The slip angle is the tyre module's ``slip_angle`` with the floor
-   speed :attr:`TenDoFOptions.v_min_lat` (remedy 1 of [VM] section 3, lateral only).
+   rotated into wheel axes. The slip angle is the tyre module's ``slip_angle``,
+   ``atan(v_yw / s(v_xw))``, with the floor speed :attr:`TenDoFOptions.v_min_lat` of the
+   smooth denominator ``s`` (remedy 1 of [VM] section 3, lateral only).
 5. Longitudinal slip: relaxation length with carcass damping (remedy 2 of [VM] section 3,
    [P12] section 7.2)::
 
@@ -132,8 +133,9 @@ slips RK4 at 1 ms is unstable below 1.7 m/s (bmw320i) and 3.7 m/s (peugeot406) (
 The right-hand side has kinks only at ``vx = 0`` (``|v_xw|``), ``|v_xw| = v_min_lat`` (C2
 there) and ``F_z = 0`` (lift-off); inputs switch the drive/brake branch at ``tw = 0``.
 
-Speed: about 2.5 us per RK4 step (~400x real time at 1 ms) on the project's machine, 80-90 %
-of it in the 16 Magic Formula evaluations of a step (``benchmarks/README.md``).
+Speed: about 0.85 us per RK4 step (~1150-1200x real time at 1 ms) on the project's machine,
+more than half of it in the four 4-tyre Magic Formula evaluations of a step; 2.5 us (~400x)
+before the tyres were evaluated in SIMD lanes (``benchmarks/README.md``).
 
 Implementation
 --------------
@@ -144,6 +146,23 @@ the compiled RK4 step :func:`rk4_step_kernel`, the compiled loop :func:`simulate
 (:meth:`TenDoF.diagnostics`). Parameters enter the kernels as flat arrays: ``MP`` (derived
 vehicle and model constants, built by :meth:`TenDoF.__init__`) and the two tyres'
 ``TireParams.to_array()``.
+
+:func:`rhs_kernel` makes three passes over the wheels: (1) suspension, loads, contact-point
+velocities and the relaxed-slip dynamics, wheel by wheel; (2) the tyre forces of the four
+wheels at once; (3) body forces, moments and wheel spin, wheel by wheel. The per-wheel values
+travel between the passes in the ``diag`` array (its columns are :func:`flatfree.tires.
+mf_combined4`'s lane layout; the friction scale borrows the ``kappa_plain`` column until pass 3
+writes it). Pass 2 is, by default (:attr:`TenDoFOptions.tire_lanes`), one loop over four SIMD
+lanes: the slip angle's ``atan`` and the whole combined-slip Magic Formula, branch-free, with
+the polynomial ``atan``, ``sin``, ``cos``, ``exp`` of ``flatfree._vecmath``; LLVM evaluates
+the four wheels in 4-wide vector registers. It gives the forces of the scalar kernels to
+round-off (1-2 ulp elementary functions) and the trajectories of the scalar path to ~1e-14 of
+each state's range (``tests/test_tendof_fastpath.py``). With ``tire_lanes=False`` pass 2 calls
+``math.atan`` and :func:`flatfree.tires.mf_combined` wheel by wheel: the reference path, equal
+bit for bit to the model before the lanes existed. The hot kernels (:func:`rhs_kernel`,
+:func:`rk4_step_kernel` and the loop of :func:`simulate_kernel`) are compiled without numba's
+reference counting (they allocate nothing): its per-call atomic increments and decrements of
+every array argument cost ~40 % of the run time.
 
 References
 ----------
@@ -166,9 +185,11 @@ import numpy as np
 from numba import njit
 
 from flatfree._validate import finite, positive
-from flatfree.tires import mf_combined, slip_angle, slip_stiffness
+from flatfree import _vecmath as vm
+from flatfree.tires import _lanes_general as _mf_lanes_general
+from flatfree.tires import _mf_combined_lane, mf_combined, slip_speed, slip_stiffness
 from flatfree.units import G
-from flatfree.vehicles.params import VehicleParams
+from flatfree.vehicles.params import TP, VehicleParams
 
 __all__ = [
     "MP",
@@ -281,6 +302,7 @@ class MP(enum.IntEnum):
     tau_acc = 41  # acceleration filter time constant [s]
     ackermann = 42  # 1 for Ackermann steering, 0 for parallel
     h_u = 43  # unsprung CoG height = R_e [m]
+    tire_lanes = 44  # 1: tyres in SIMD lanes (mf_combined4), 0: scalar mf_combined
 
 
 NX = len(TenDoFState)
@@ -339,8 +361,32 @@ _SGN0 = int(MP.sign_speed)
 _TAUA = int(MP.tau_acc)
 _ACK = int(MP.ackermann)
 _HU = int(MP.h_u)
+_LANES = int(MP.tire_lanes)
+_NTP = len(TP)
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
+# The hot kernels allocate nothing and only index the arrays they are given (owned by the
+# caller for the whole call), so they need no reference counting. With it, numba increfs and
+# decrefs every array argument and view on every call (lock-prefixed atomic operations); its
+# pruning pass cannot remove them across calls that are not inlined (mf_combined, rhs_kernel),
+# and they took ~37 % of the run time (perf, benchmarks/README.md). ``_nrt=False`` compiles a
+# function without numba's runtime (an underscore option, which numba's own string and sort
+# kernels use for the same reason). Should a numba release drop it, the option is left out
+# (checked below without compiling anything): the kernels are then slower but identical.
+
+
+def _no_refcount_jit_options() -> dict:
+    """``_JIT`` plus ``_nrt=False`` when this numba knows the option."""
+    try:
+        from numba.core.cpu import CPUTargetOptions
+
+        known = hasattr(CPUTargetOptions, "_nrt")
+    except ImportError:  # pragma: no cover - a numba without this module layout
+        known = False
+    return dict(_JIT, _nrt=False) if known else dict(_JIT)
+
+
+_JIT_NO_REFCOUNT = _no_refcount_jit_options()
 
 
 # --------------------------------------------------------------------------------------------
@@ -374,6 +420,14 @@ class TenDoFOptions:
         Time constant [s], > 0, of the low-pass filter on the accelerations that drive the
         quasi-static load transfer (module docstring, item 3). Default 10 ms, the low end of
         [VM] 1.5's 10-50 ms.
+    tire_lanes : bool
+        Evaluate the four tyres together in SIMD lanes (:func:`flatfree.tires.mf_combined4`
+        and :func:`flatfree._vecmath.atan` for the slip angles; default) instead of one
+        :func:`flatfree.tires.mf_combined` call and one ``math.atan`` per wheel. Both give the
+        same forces to round-off (the elementary functions differ by 1-2 ulp) and the same
+        trajectories to ~1e-14 of each state's range (``tests/test_tendof_fastpath.py``); the
+        lanes make the whole model about 2.3x faster. ``False`` is the scalar reference path,
+        bit-identical to the model before the lanes existed.
     """
 
     ackermann: bool = field(default=False, metadata={"unit": ""})
@@ -382,6 +436,7 @@ class TenDoFOptions:
     brake_time_constant: float = field(default=1e-3, metadata={"unit": "s"})
     sign_speed: float = field(default=0.1, metadata={"unit": "rad/s"})
     accel_filter_time: float = field(default=0.01, metadata={"unit": "s"})
+    tire_lanes: bool = field(default=True, metadata={"unit": ""})
 
     def __post_init__(self) -> None:
         if not isinstance(self.ackermann, bool):
@@ -393,6 +448,8 @@ class TenDoFOptions:
         positive("brake_time_constant", self.brake_time_constant, "s")
         positive("sign_speed", self.sign_speed, "rad/s")
         positive("accel_filter_time", self.accel_filter_time, "s")
+        if not isinstance(self.tire_lanes, bool):
+            raise ValueError(f"tire_lanes = {self.tire_lanes!r}: expected True or False")
 
 
 # --------------------------------------------------------------------------------------------
@@ -404,7 +461,7 @@ def _smooth_sign(w: float, eps: float) -> float:
     return w / math.sqrt(w * w + eps * eps)
 
 
-@njit(**_JIT)
+@njit(**_JIT_NO_REFCOUNT)
 def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     """Time derivative of the 10DoF state (module docstring), written into ``dx``.
 
@@ -424,7 +481,8 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
         Output: per wheel (:class:`Wheel` order) the columns ``DIAG_FIELDS`` = vertical load
         [N], tyre forces ``F_x``, ``F_y`` in wheel axes [N], slip angle [rad], the slip
         ``kappa_eff`` seen by the tyre [-] and the plain slip ratio
-        ``(Omega R_e - v_xw)/max(|v_xw|, v_min_lat)`` [-].
+        ``(Omega R_e - v_xw)/max(|v_xw|, v_min_lat)`` [-]. Also the scratch of the three wheel
+        passes (module docstring, Implementation); another row length raises ValueError.
 
     References
     ----------
@@ -498,6 +556,12 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     hu = p[_HU]
     mua = p[_MUA]
 
+    # Three passes over the wheels: (1) loads, slips and the relaxed-slip dynamics; (2) the
+    # tyre forces of all four wheels at once; (3) body forces and wheel spin. Per-wheel values
+    # pass between them in ``diag`` (its columns are the tyre kernel's lane layout, the friction
+    # scale borrowing the kappa_plain column until pass 3 fills it).
+    if diag.shape[1] != NDIAG:
+        raise ValueError("rhs_kernel: diag must have shape (4, 6)")
     for w in range(4):
         front = w < 2
         left = (w % 2) == 0
@@ -510,11 +574,8 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
             fz0 = p[_FZ0F]
             share = lr / wb
             hrc = p[_HRCF]
-            iw = p[_IWF]
             sig = p[_SIGF]
             taud = p[_TDF]
-            tdrive = drv_f
-            tbrake = brk_f
             dlong = -1.0  # front gains load when braking (a_x < 0)
             if left:
                 cd = cl
@@ -531,11 +592,8 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
             fz0 = p[_FZ0R]
             share = lf / wb
             hrc = p[_HRCR]
-            iw = p[_IWR]
             sig = p[_SIGR]
             taud = p[_TDR]
-            tdrive = drv_r
-            tbrake = brk_r
             dlong = 1.0
             cd = 1.0
             sd = 0.0
@@ -563,7 +621,6 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
         vyc = vy + r * xi
         vxw = vxc * cd + vyc * sd
         vyw = -vxc * sd + vyc * cd
-        alpha = slip_angle(vxw, vyw, p[_VMIN])
         om = x[_OM + w]
         kap = x[_KA + w]
         vslip = om * re - vxw  # slip speed, > 0 when driving
@@ -571,7 +628,66 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
         dx[_KA + w] = kdot
         keff = kap + taud * kdot  # Kelvin-Voigt carcass damping (module docstring, item 5)
 
-        fx, fy = mf_combined(keff, alpha, fz, u[_MU + w], tpf if front else tpr)
+        diag[w, 0] = fz
+        # tan(alpha): the slip angle is atan(v_yw / s(v_xw)), tyre module's slip_angle ([VM] 1.6)
+        diag[w, 3] = vyw / slip_speed(vxw, p[_VMIN])
+        diag[w, 4] = keff
+        diag[w, 5] = u[_MU + w]
+
+    # ---- tyre forces, wheel axes ([P12] 4.3.2; flatfree.tires) ----
+    if p[_LANES] != 0.0:
+        # the four wheels in SIMD lanes: the loop of flatfree.tires.mf_combined4 with the slip
+        # angle's atan in it. The tyres enter as tuples and diag's row length is known (checked
+        # above), so the loop touches no memory but diag at a constant stride: LLVM vectorises it.
+        ta = vm.as_tuple(tpf, _NTP)
+        tb = vm.as_tuple(tpr, _NTP)
+        if _mf_lanes_general(ta, tb):
+            for w in range(4):
+                alpha = vm.atan(diag[w, 3])
+                diag[w, 3] = alpha
+                diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
+                                                           diag[w, 5], ta, tb, w < 2, True)
+        else:
+            for w in range(4):
+                alpha = vm.atan(diag[w, 3])
+                diag[w, 3] = alpha
+                diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
+                                                           diag[w, 5], ta, tb, w < 2, False)
+    else:
+        # scalar reference: slip_angle's atan and mf_combined, wheel by wheel
+        for w in range(4):
+            alpha = math.atan(diag[w, 3])
+            diag[w, 3] = alpha
+            diag[w, 1], diag[w, 2] = mf_combined(diag[w, 4], alpha, diag[w, 0], diag[w, 5],
+                                                 tpf if w < 2 else tpr)
+
+    for w in range(4):
+        front = w < 2
+        left = (w % 2) == 0
+        if front:
+            xi = lf
+            tt = tf
+            iw = p[_IWF]
+            tdrive = drv_f
+            tbrake = brk_f
+            if left:
+                cd = cl
+                sd = sl
+            else:
+                cd = cr_
+                sd = sr_
+        else:
+            xi = -lr
+            tt = tr
+            iw = p[_IWR]
+            tdrive = drv_r
+            tbrake = brk_r
+            cd = 1.0
+            sd = 0.0
+        yj = 0.5 * tt if left else -0.5 * tt
+        fz = diag[w, 0]
+        fx = diag[w, 1]
+        fy = diag[w, 2]
 
         # ---- body forces ([VM] 1.2-1.3) ----
         fxb = fx * cd - fy * sd
@@ -581,6 +697,7 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
         mz += xi * fyb - yj * fxb
 
         # ---- wheel spin ([VM] 1.7) ----
+        om = x[_OM + w]
         sgn0 = _smooth_sign(om, p[_SGN0])
         tq = tdrive - re * fx - p[_FR] * fz * re * sgn0
         if tbrake > 0.0:
@@ -588,12 +705,9 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
             tq -= tbrake * _smooth_sign(om, eps_b)
         dx[_OM + w] = tq / iw
 
-        diag[w, 0] = fz
-        diag[w, 1] = fx
-        diag[w, 2] = fy
-        diag[w, 3] = alpha
-        diag[w, 4] = keff
-        diag[w, 5] = vslip / max(abs(vxw), p[_VMIN])
+        # plain slip ratio (diagnostics): the contact-point speed of pass 1, recomputed
+        vxw = (vx - r * yj) * cd + (vy + r * xi) * sd
+        diag[w, 5] = (om * re - vxw) / max(abs(vxw), p[_VMIN])
 
     # ---- planar motion ([VM] 1.3) ----
     ax = (sum_fx - fd) / m  # body-frame CoG acceleration
@@ -627,7 +741,7 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     dx[_AYF] = (ay - ayf) / tau
 
 
-@njit(**_JIT)
+@njit(**_JIT_NO_REFCOUNT)
 def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     """One classical RK4 step of :func:`rhs_kernel`, input held: writes ``x(t + dt)`` into ``out``.
 
@@ -664,10 +778,17 @@ def simulate_kernel(x0, us, dt, p, tpf, tpr, xs):
     ``n`` on success, fewer if a state became non-finite (that step's row is written, the
     remaining rows are left untouched).
     """
-    n = us.shape[0]
     nx = x0.shape[0]
     work = np.empty((5, nx))
     diag = np.empty((4, NDIAG))
+    return _simulate_steps(x0, us, dt, p, tpf, tpr, xs, work, diag)
+
+
+@njit(**_JIT_NO_REFCOUNT)
+def _simulate_steps(x0, us, dt, p, tpf, tpr, xs, work, diag):
+    """The loop of :func:`simulate_kernel` (scratch arrays allocated by the caller)."""
+    n = us.shape[0]
+    nx = x0.shape[0]
     for i in range(nx):
         xs[0, i] = x0[i]
     for k in range(n):
@@ -1090,6 +1211,7 @@ def _build_params(vp: VehicleParams, opts: TenDoFOptions) -> np.ndarray:
     p[_TAUA] = opts.accel_filter_time
     p[_ACK] = 1.0 if opts.ackermann else 0.0
     p[_HU] = h_u
+    p[_LANES] = 1.0 if opts.tire_lanes else 0.0
     return p
 
 
