@@ -6,9 +6,12 @@ Definitions (the same for every controller, so that comparisons are fair):
   path, left positive (signal ``lateral_error``).
 - **yaw error** [rad, reported in deg]: the vehicle's yaw minus the reference yaw, wrapped to
   (-pi, pi] (signal ``yaw_error``). The reference yaw is the recorded yaw for a recorded
-  reference, and the path heading plus the reference sideslip angle of the 3DoF model along the
-  path for a track reference: comparing with the bare path heading would count the car's own
-  sideslip as error.
+  reference; for a track reference it is the path heading corrected by the reference sideslip
+  angle of the 3DoF model along the path, beta_ref = atan(Vy_ref / Vx_ref): comparing with the
+  bare path heading would count the car's own sideslip as error. With ISO 8855 signs the course
+  angle (direction of the CoG velocity) is yaw + beta, so a car whose velocity follows the path
+  has the yaw ``path heading - beta_ref`` (the issue's "plus" is the same correction written
+  with the opposite sign convention for the sideslip angle).
 - **speed error** [m/s]: ``vx - vx_ref``.
 - **steering rate** [rad/s]: the time derivative of the applied steer angle ``steer``
   (finite differences on the logged grid).
