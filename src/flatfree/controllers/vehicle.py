@@ -1,0 +1,548 @@
+"""The paper's three vehicle controllers (Sections 2.3, 3.3 and 3.4) for the compiled loop.
+
+``flatness`` (flatness-based control, Section 2.3)
+    :func:`flatfree.controllers.flatness_control.flatness_step` on the measured (vx, vy, r),
+    tracking y1 = Vx and y2 = lf m Vy - Iz r with a design model whose Cf, Cr may be scaled
+    (the paper's Figure 2 mismatch: ``cf_scale = cr_scale = 0.3``).
+
+The two model-free designs are two decoupled single-input single-output loops each (paper
+Section 3.3-3.4, NOTES.md):
+
+``mfc-flat`` (model-free control on flat outputs, Section 3.3)
+    y1 = Vx (input: wheel torque T_w) and y2 = lf m Vy - Iz r (input: steer delta), both with an
+    iPI on the ultra-local model y' = F + alpha u (nu = 1). Uses m, Iz, lf to form y2 and
+    nothing else of the vehicle.
+``mfc-natural`` (model-free control on natural outputs, Section 3.4)
+    y1 = Vx with an iP (nu = 1) on the wheel torque, and y2 = the lateral deviation e_y from
+    the reference path with an iPD (nu = 2) on the steer. No vehicle parameter at all. Added
+    here (each documented in :class:`MfcNaturalSettings`, off-switchable): a parameter-free yaw
+    damper on the steer, the paper's causal denoiser on the measurements, and the estimators
+    fed with the inputs actually applied.
+
+The intelligent controllers are :mod:`flatfree.controllers.intelligent` (estimator of F fed with
+the applied input, saturation and rate limits mirrored from the actuators, anti-windup). The
+references are scheduled by the car's measured arc length by default (``schedule``). Each
+loop's reference and its derivatives come from the reference trajectory (columns :class:`CREF`);
+the measurement vector has the layout :class:`MEAS`.
+
+Sign conventions: e = y - y_ref inside the intelligent controllers (NOTES.md); a positive steer
+turns left and increases e_y'' (alpha_lat > 0); a positive torque accelerates (alpha_lon > 0).
+
+A caveat of the paper's flat-output design: the steer cancels in y2' (NOTES.md), i.e. y2 has
+relative degree 2 with respect to the steer, and d(y2'')/d(delta) = Delta_22 ~ -C_f lf^2 m Vx / Iz
+(for Iz ~ lf lr m) is negative. The first-order ultra-local model y2' = F + alpha delta of the
+paper therefore stands for the effect of the steer on y2' accumulated over the estimator window,
+and alpha_lat must be negative (:class:`MfcFlatSettings`). The paper reports this design as
+clearly worse than the natural-output one (lateral errors above 10 cm).
+
+References
+----------
+.. [P] paper 000_81cd509a47ab99bc, Sections 2.3, 3.2-3.4; corrections in NOTES.md.
+.. [FJ13] M. Fliess, C. Join, "Model-free control", Int. J. Control 86 (2013) 2228-2252.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from flatfree._validate import finite, positive
+from flatfree.actuators import ActuatorParams
+from flatfree.controllers.flatness_control import (
+    FlatnessControlParams,
+    flatness_step,
+    gains_from_poles,
+)
+from flatfree.controllers.flatness_control import make_state as flat_make_state
+from flatfree.controllers.intelligent import (
+    IPAR,
+    IST,
+    IntelligentParams,
+    intelligent_step,
+    make_state,
+)
+from flatfree.estimators import denoising_weights, fir_new, fir_reset, fir_update
+from flatfree.models.bicycle3dof import Bicycle3DoFParams
+
+__all__ = [
+    "MEAS",
+    "CREF",
+    "KIND",
+    "MfcFlatSettings",
+    "MfcNaturalSettings",
+    "FlatnessSettings",
+    "SCHEDULES",
+    "VehicleControllerArrays",
+    "settings_from_mapping",
+    "build_mfc",
+    "build_flatness",
+    "flatness_params",
+    "vehicle_step",
+]
+
+
+class MEAS(enum.IntEnum):
+    """Measurement vector handed to a vehicle controller (SI)."""
+
+    X = 0  # [m]
+    Y = 1  # [m]
+    PSI = 2  # [rad]
+    VX = 3  # [m/s]
+    VY = 4  # [m/s]
+    R = 5  # [rad/s]
+    E_Y = 6  # lateral deviation from the reference path, from the measured pose [m]
+    E_PSI = 7  # heading error from the measured pose [rad]
+
+
+class CREF(enum.IntEnum):
+    """Controller reference vector at the current time (SI)."""
+
+    VX = 0  # [m/s]
+    AX = 1  # d Vx / dt [m/s^2]
+    Y2 = 2  # lf m Vy - Iz r of the 3DoF reference states [kg m^2/s]
+    Y2_DOT = 3
+    Y2_DDOT = 4
+    EY = 5  # lateral deviation reference [m]
+    EY_DOT = 6
+    EY_DDOT = 7
+    KAPPA = 8  # path curvature at the reference point [1/m]
+
+
+#: How the reference is scheduled: ``"path"`` samples it at the time the reference reaches the
+#: car's *measured* arc length (path following), ``"time"`` at the clock time (trajectory
+#: tracking). See :class:`MfcNaturalSettings`.
+SCHEDULES = ("path", "time")
+
+
+def _check_schedule(value: str) -> None:
+    if value not in SCHEDULES:
+        raise ValueError(f"schedule = {value!r}: must be one of {', '.join(SCHEDULES)}")
+
+
+def _check_denoise(settings) -> None:
+    for k in ("denoise_lon", "denoise_lat", "denoise_yaw"):
+        if not hasattr(settings, k):
+            continue
+        v = getattr(settings, k)
+        if isinstance(v, bool) or int(v) != v or v < 0 or v == 1:
+            raise ValueError(f"{k} = {v!r}: must be 0 (off) or an integer >= 2 samples")
+
+
+def _denoiser(n: int) -> np.ndarray:
+    """Kernel state of the paper's causal denoiser over ``n`` samples (1-element dummy: off)."""
+    if n == 0:
+        return np.zeros(1)
+    # NOTES.md "Denoising": kernel (2T - 3d), exact on ramps; start-up: prefill (at rest)
+    return fir_new(denoising_weights(int(n)), startup="prefill", nonfinite="hold")
+
+
+class KIND(enum.IntEnum):
+    """Controller codes of the compiled loop."""
+
+    FLATNESS = 0
+    MFC_FLAT = 1
+    MFC_NATURAL = 2
+    PYTHON = 3  # a user's Python controller (flatfree.simulation.simulate(controller=...))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MfcNaturalSettings:
+    """Settings of the model-free controller on natural outputs (iP on Vx, iPD on e_y).
+
+    The defaults are the settings of every named scenario (flatfree.scenarios), the same on
+    every track and for both presets tried (peugeot406, dallara_av21), at a 1 kHz control rate.
+    They were chosen by sweeps on the 10DoF plant with the realistic sensors over Norisring,
+    Monza, Spa and Budapest, several seeds (worst max lateral error, completion, steer rate);
+    the record is benchmarks/README.md "Closed loop". ``yaw_damping = 0`` with
+    ``wn_lat = 4`` is the paper's design unchanged (it completes Norisring noise-free at
+    2.1 cm but leaves the track on fast tracks and with noise: see ``yaw_damping``).
+
+    Parameters
+    ----------
+    alpha_lon : float
+        Input gain of the longitudinal ultra-local model Vx' = F + alpha u [(m/s^2) / (N m)].
+        Of the order of 1 / (m R_e) (a car of 1,000-1,500 kg on 0.3 m wheels: 0.002-0.003);
+        the iP is stable for alpha / b from about 0.24 to 50 (intelligent.py), so one value
+        serves every preset.
+    kp_lon : float
+        Gain of the speed error [1/s] (closed-loop time constant 1 / kp_lon).
+    window_lon : int
+        Samples of the F estimator window (speed loop).
+    alpha_lat : float
+        Input gain of the lateral ultra-local model e_y'' = F + alpha delta [(m/s^2) / rad];
+        of the order of C_f / m (the direct effect of the front lateral force).
+    wn_lat, zeta_lat : float
+        Natural frequency [rad/s] and damping [-] of the designed lateral error dynamics
+        e'' + 2 zeta wn e' + wn^2 e = 0 (kp = wn^2, kd = 2 zeta wn).
+    window_lat : int
+        Samples of the F estimator window (lateral loop).
+    derivative_lat : str
+        Source of e_y' (``"model"``: the F estimator's least-squares fit, no lag;
+        ``"algebraic"``: the paper's derivative, lag T/2).
+    denoise_lon, denoise_lat : int
+        Samples of the paper's causal denoiser (eq. (filtering), corrected in NOTES.md:
+        :func:`flatfree.estimators.denoising_weights`, the least-squares line over the window
+        at the newest sample, exact on ramps) applied to the measured Vx and e_y before the
+        iP / iPD; 0 (default): none. With 1 mm white position noise at 1 kHz the iPD's steer
+        jitter exceeds the steer-rate limit (0.4 rad/s for the peugeot406) whatever the
+        setting short of windows of 0.3 s (measured); a denoiser of 100 samples with a
+        300-sample F window gives smooth steering at about 4x the lateral error.
+    yaw_damping : float
+        Gain ``k_r`` [s] of a parameter-free yaw damper added to the iPD's steer:
+        ``delta = delta_iPD - k_r (r - Vx kappa(s))`` with the measured yaw rate and speed and
+        the path curvature at the measured position; 0: off (the paper's design). Why: the
+        lateral deviation of the CoG as output leaves the yaw motion as zero dynamics,
+        ``s^2 + L Cr lr / (Iz Vx) s + L Cr / Iz`` for the linear bicycle (derivation in
+        benchmarks/README.md "Closed loop"), 8.7 rad/s with damping 0.14 at 50 m/s for the
+        peugeot406: perfect e_y tracking leaves a weave that noise excites and the steer-rate
+        limit then destabilises. ``r - Vx kappa`` is minus the sideslip rate when the car is on
+        the path, zero in steady cornering, so the damper adds no steady error.
+    denoise_yaw : int
+        Samples of the paper's causal denoiser applied to the yaw damper's input
+        ``r - Vx kappa`` (0: none); the gyro's white noise would otherwise reach the steer
+        directly (``k_r sigma_r`` per sample).
+    feed_applied : bool
+        Feed the estimators the inputs the actuators actually applied (rate limits, the power
+        cap, faults, the yaw damper) instead of the controllers' own outputs (default True;
+        intelligent.py: F must be estimated from the applied input).
+    schedule : str
+        ``"path"`` (default): the speed and lateral references are read at the reference time
+        of the car's measured arc length; ``"time"``: at the clock time. Why path: the
+        speed profile (a friction ellipse, :mod:`flatfree.tracks.speed`) ignores the engine's
+        power, so on long straights the car falls behind the clock (peugeot406 on Norisring:
+        ~0.8 s after the first straight); with clock scheduling it then brakes and accelerates
+        at the wrong places (at an apex, where the open differential lets the unloaded inner
+        front wheel spin up: the run leaves the track at 26.5 s). The loop ends the lap when the
+        car reaches the end of the reference path.
+    """
+
+    alpha_lon: float = 0.002
+    kp_lon: float = 2.0
+    window_lon: int = 50
+    alpha_lat: float = 30.0
+    wn_lat: float = 8.0
+    zeta_lat: float = 1.0
+    window_lat: int = 100
+    derivative_lat: str = "model"
+    denoise_lon: int = 0
+    denoise_lat: int = 0
+    yaw_damping: float = 0.4
+    denoise_yaw: int = 50
+    feed_applied: bool = True
+    schedule: str = "path"
+
+    def __post_init__(self) -> None:
+        _check_schedule(self.schedule)
+        _check_denoise(self)
+        if finite("yaw_damping", self.yaw_damping, "s") < 0.0:
+            raise ValueError(f"yaw_damping = {self.yaw_damping!r} s: must be >= 0")
+        if not isinstance(self.feed_applied, bool):
+            raise ValueError(f"feed_applied = {self.feed_applied!r}: must be true or false")
+        positive("alpha_lon", self.alpha_lon, "(m/s^2)/(N m)")
+        positive("kp_lon", self.kp_lon, "1/s")
+        positive("alpha_lat", self.alpha_lat, "(m/s^2)/rad")
+        positive("wn_lat", self.wn_lat, "rad/s")
+        positive("zeta_lat", self.zeta_lat, "-")
+        for k in ("window_lon", "window_lat"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or int(v) != v or v < 3:
+                raise ValueError(f"{k} = {v!r}: must be an integer >= 3 samples")
+        if self.derivative_lat not in ("model", "algebraic"):
+            raise ValueError(
+                f"derivative_lat = {self.derivative_lat!r}: must be 'model' or 'algebraic'")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MfcFlatSettings:
+    """Settings of the model-free controller on flat outputs (two iPIs, nu = 1).
+
+    Parameters
+    ----------
+    alpha_lon, kp_lon, ki_lon, window_lon
+        Speed loop (as :class:`MfcNaturalSettings`, plus the integral gain [1/s^2]).
+    alpha_lat : float
+        Input gain of y2' = F + alpha delta [(kg m^2/s^2) / rad]. Negative (module docstring):
+        left steer raises the yaw rate and lowers y2 = lf m Vy - Iz r. Of the order of
+        -Iz (lf C_f / Iz) = -lf C_f over the window (the yaw-rate response to the steer).
+    kp_lat, ki_lat, window_lat
+        Lateral loop gains [1/s], [1/s^2] and window [samples].
+    denoise_lon, denoise_lat : int
+        As :class:`MfcNaturalSettings` (applied to Vx and to y2).
+    schedule : str
+        As :class:`MfcNaturalSettings`.
+    """
+
+    alpha_lon: float = 0.002
+    kp_lon: float = 2.0
+    ki_lon: float = 0.0
+    window_lon: int = 50
+    alpha_lat: float = -1.0e5
+    kp_lat: float = 10.0
+    ki_lat: float = 0.0
+    window_lat: int = 20
+    denoise_lon: int = 0
+    denoise_lat: int = 0
+    schedule: str = "path"
+
+    def __post_init__(self) -> None:
+        _check_schedule(self.schedule)
+        _check_denoise(self)
+        positive("alpha_lon", self.alpha_lon, "(m/s^2)/(N m)")
+        finite("alpha_lat", self.alpha_lat, "(kg m^2/s^2)/rad")
+        if self.alpha_lat == 0.0:
+            raise ValueError("alpha_lat = 0.0 (kg m^2/s^2)/rad: must be nonzero")
+        for k in ("kp_lon", "kp_lat"):
+            positive(k, getattr(self, k), "1/s")
+        for k in ("ki_lon", "ki_lat"):
+            if finite(k, getattr(self, k), "1/s^2") < 0.0:
+                raise ValueError(f"{k} = {getattr(self, k)!r} 1/s^2: must be >= 0")
+        for k in ("window_lon", "window_lat"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or int(v) != v or v < 2:
+                raise ValueError(f"{k} = {v!r}: must be an integer >= 2 samples")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class FlatnessSettings:
+    """Settings of the flatness-based controller in the closed loop.
+
+    Parameters
+    ----------
+    speed_poles : tuple of 2 floats
+        Closed-loop poles of the speed error (PI) [1/s] (:func:`gains_from_poles`).
+    lateral_poles : tuple of 3 floats
+        Closed-loop poles of the y2 error (PID) [1/s].
+    cf_scale, cr_scale : float
+        Factors on the design model's cornering stiffnesses [-] (paper Figure 2: 0.3, 0.3).
+        The controller's own y2 reference is computed with the scaled model too: the
+        controller plans and tracks with the model it believes in.
+    derivative : str
+        Source of the measured y2' (``"model"`` or ``"algebraic"``; flatness_control.py).
+    wheel_accel : str
+        ``"zero"`` or ``"rolling"`` (flatness_control.py).
+    schedule : str
+        As :class:`MfcNaturalSettings`.
+    """
+
+    speed_poles: tuple[float, ...] = (-2.0, -3.0)
+    lateral_poles: tuple[float, ...] = (-4.0, -5.0, -6.0)
+    cf_scale: float = 1.0
+    cr_scale: float = 1.0
+    derivative: str = "model"
+    wheel_accel: str = "rolling"
+    schedule: str = "path"
+
+    def __post_init__(self) -> None:
+        _check_schedule(self.schedule)
+        object.__setattr__(self, "speed_poles", tuple(float(v) for v in self.speed_poles))
+        object.__setattr__(self, "lateral_poles", tuple(float(v) for v in self.lateral_poles))
+        gains_from_poles(self.speed_poles, self.lateral_poles)  # validates
+        positive("cf_scale", self.cf_scale, "-")
+        positive("cr_scale", self.cr_scale, "-")
+
+
+_SETTINGS = {"mfc-natural": MfcNaturalSettings, "mfc-flat": MfcFlatSettings,
+             "flatness": FlatnessSettings}
+
+
+def settings_from_mapping(controller: str, values: Mapping[str, Any]):
+    """The settings object of ``controller`` from a mapping (a scenario's controller_settings).
+
+    Unknown keys raise ``ValueError`` listing the valid ones; missing keys take the documented
+    defaults of the settings class.
+    """
+    try:
+        cls = _SETTINGS[controller]
+    except KeyError:
+        raise ValueError(
+            f"controller {controller!r} has no model-free settings; valid: {sorted(_SETTINGS)}"
+        ) from None
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise ValueError(f"controller_settings {unknown} unknown for {controller}; valid keys: "
+                         f"{', '.join(sorted(known))}")
+    return cls(**dict(values))
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleControllerArrays:
+    """Everything the compiled loop needs for one vehicle controller."""
+
+    kind: int
+    p_lon: np.ndarray
+    s_lon: np.ndarray
+    p_lat: np.ndarray
+    s_lat: np.ndarray
+    coef: np.ndarray  # [denoise_lon on, denoise_lat on, a, b, yaw damping k_r, feed applied,
+    #                   denoise_yaw on];
+    #                   mfc-flat a, b = lf m, Iz; flatness a = dt
+    f_lon: np.ndarray  # denoiser kernel state of the speed loop's measurement (or a dummy)
+    f_lat: np.ndarray  # denoiser kernel state of the lateral loop's measurement (or a dummy)
+    f_yaw: np.ndarray  # denoiser kernel state of the yaw damper's input (or a dummy)
+
+    def reset(self) -> None:
+        """Fresh controller states."""
+        for on, ks in ((self.coef[0], self.f_lon), (self.coef[1], self.f_lat),
+                       (self.coef[6], self.f_yaw)):
+            if on:
+                fir_reset(ks)
+        if self.kind == KIND.FLATNESS:
+            self.s_lon[:] = flat_make_state(self.p_lon)
+            return
+        self.s_lon[:] = make_state(self.p_lon)
+        self.s_lat[:] = make_state(self.p_lat)
+
+
+def build_flatness(settings: FlatnessSettings, *, dt: float,
+                   model: Bicycle3DoFParams) -> VehicleControllerArrays:
+    """Arrays of the flatness-based controller at control period ``dt`` [s].
+
+    ``model`` is the *nominal* design model (normally ``Bicycle3DoFParams.from_vehicle``); the
+    settings' ``cf_scale``, ``cr_scale`` are applied by :class:`FlatnessControlParams`. The
+    parameter and state arrays go in the ``p_lon``/``s_lon`` slots (``p_lat``, ``s_lat`` unused).
+    """
+    dt = positive("dt", dt, "s")
+    fp = flatness_params(settings, dt=dt, model=model)
+    p = fp.to_array()
+    return VehicleControllerArrays(int(KIND.FLATNESS), p, flat_make_state(p), np.zeros(1),
+                                   np.zeros(1), np.array([0.0, 0.0, dt, 0.0, 0.0, 0.0, 0.0]),
+                                   np.zeros(1), np.zeros(1), np.zeros(1))
+
+
+def flatness_params(settings: FlatnessSettings, *, dt: float,
+                    model: Bicycle3DoFParams) -> FlatnessControlParams:
+    """The :class:`FlatnessControlParams` of ``settings`` (design model scaled as set)."""
+    return FlatnessControlParams(
+        model=model, gains=gains_from_poles(settings.speed_poles, settings.lateral_poles),
+        dt=dt, cf_scale=settings.cf_scale, cr_scale=settings.cr_scale,
+        derivative=settings.derivative, wheel_accel=settings.wheel_accel)
+
+
+def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams,
+              mass: float = math.nan, iz: float = math.nan, lf: float = math.nan,
+              torque0: float = 0.0) -> VehicleControllerArrays:
+    """Arrays of a model-free vehicle controller at control period ``dt`` [s].
+
+    The intelligent controllers' limits mirror the actuators' (so that the F estimators see the
+    input actually applied): steer range and rate, torque between -max_brake_torque and
+    max_drive_torque (the speed-dependent power cap is the actuator's own; the estimator then
+    sees the difference as part of F).
+    """
+    dt = positive("dt", dt, "s")
+    # with feed_applied the actuator alone rate-limits the steer and the estimator is told what
+    # it applied; a second rate limit inside the iPD would integrate the yaw damper's term
+    feed = bool(getattr(settings, "feed_applied", False))
+    steer_lim = dict(u_min=-actuators.max_steer, u_max=actuators.max_steer,
+                     rate_max=math.inf if feed else actuators.max_steer_rate)
+    torque_lim = dict(u_min=-actuators.max_brake_torque, u_max=actuators.max_drive_torque,
+                      u0=torque0)
+    if controller == "mfc-natural":
+        s: MfcNaturalSettings = settings
+        lon = IntelligentParams(nu=1, alpha=s.alpha_lon, dt=dt, window=s.window_lon,
+                                kp=s.kp_lon, **torque_lim)
+        lat = IntelligentParams(nu=2, alpha=s.alpha_lat, dt=dt, window=s.window_lat,
+                                kp=s.wn_lat**2, kd=2.0 * s.zeta_lat * s.wn_lat,
+                                derivative=s.derivative_lat,
+                                derivative_window=s.window_lat, **steer_lim)
+        kind = KIND.MFC_NATURAL
+        coef = np.array([float(s.denoise_lon > 0), float(s.denoise_lat > 0), 0.0, 0.0,
+                         s.yaw_damping, float(s.feed_applied), float(s.denoise_yaw > 0)])
+    elif controller == "mfc-flat":
+        s2: MfcFlatSettings = settings
+        positive("mass", mass, "kg")
+        positive("iz", iz, "kg m^2")
+        positive("lf", lf, "m")
+        lon = IntelligentParams(nu=1, alpha=s2.alpha_lon, dt=dt, window=s2.window_lon,
+                                kp=s2.kp_lon, ki=s2.ki_lon, **torque_lim)
+        lat = IntelligentParams(nu=1, alpha=s2.alpha_lat, dt=dt, window=s2.window_lat,
+                                kp=s2.kp_lat, ki=s2.ki_lat, **steer_lim)
+        kind = KIND.MFC_FLAT
+        coef = np.array([float(s2.denoise_lon > 0), float(s2.denoise_lat > 0), lf * mass, iz,
+                         0.0, 0.0, 0.0])
+    else:
+        raise ValueError(f"controller = {controller!r}: expected 'mfc-flat' or 'mfc-natural'")
+    p_lon = lon.to_array()
+    p_lat = lat.to_array()
+    return VehicleControllerArrays(int(kind), p_lon, make_state(p_lon), p_lat,
+                                   make_state(p_lat), coef, _denoiser(settings.denoise_lon),
+                                   _denoiser(settings.denoise_lat),
+                                   _denoiser(getattr(settings, "denoise_yaw", 0)))
+
+
+_IST_U = int(IST.U)
+_IST_K = int(IST.K)
+_IST_HEAD = int(IST.HEAD)
+_IST_N = len(IST)
+_IPAR_L = int(IPAR.L)
+
+
+@njit(cache=True)
+def _record_applied(p, s, u):
+    """Replace the last output stored in an intelligent controller's state by the applied ``u``.
+
+    Uses the state layout documented in :class:`~flatfree.controllers.intelligent.IST`: after
+    the header, the y ring buffer (2 L) then the u ring buffer (2 L), the newest sample at
+    ``HEAD`` and ``HEAD + L``. Nothing is done before the first step or for a non-finite ``u``.
+    """
+    if not math.isfinite(u) or s[_IST_K] == 0.0:
+        return
+    L = int(p[_IPAR_L])
+    head = int(s[_IST_HEAD])
+    ub0 = _IST_N + 2 * L
+    s[ub0 + head] = u
+    s[ub0 + head + L] = u
+    s[_IST_U] = u
+
+
+@njit(cache=True)
+def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, meas, cref,
+                 tw_applied, delta_applied):
+    """One control step of a vehicle controller: returns (torque [N m], steer [rad]).
+
+    ``meas`` has the layout :class:`MEAS`, ``cref`` the layout :class:`CREF`; ``f_lon``,
+    ``f_lat`` are the denoisers' kernel states (used when ``coef[0]``, ``coef[1]`` are set; a
+    non-finite sample bypasses them so that the intelligent controller's own policy applies);
+    ``tw_applied``, ``delta_applied`` are the inputs applied over the previous plant step
+    (anti-windup of the flatness controller; NaN: unknown). The model-free loops feed their
+    own limited outputs to their estimators (intelligent.py).
+    """
+    if kind == 0:  # flatness-based (paper Section 2.3), arrays in the lon slots
+        return flatness_step(p_lon, s_lon, meas[3], meas[4], meas[5], cref[0], cref[1],
+                             cref[2], cref[3], cref[4], coef[2], tw_applied, delta_applied)
+    if coef[5] != 0.0:  # the estimators see what the actuators applied (intelligent.py)
+        _record_applied(p_lon, s_lon, tw_applied)
+        _record_applied(p_lat, s_lat, delta_applied)
+    vx = meas[3]
+    if coef[0] != 0.0 and math.isfinite(vx):
+        vx = fir_update(f_lon, vx)  # NOTES.md denoiser (2T - 3d)
+    tw = intelligent_step(p_lon, s_lon, vx, cref[0], cref[1], 0.0)  # iP / iPI on Vx
+    if kind == 2:  # natural outputs: iPD on e_y (paper Section 3.4)
+        y = meas[6]
+        yr, yrd, yrdd = cref[5], cref[6], cref[7]
+    else:  # flat outputs: iPI on y2 = lf m Vy - Iz r (paper Section 3.3)
+        y = coef[2] * meas[4] - coef[3] * meas[5]
+        yr, yrd, yrdd = cref[2], cref[3], 0.0
+    if coef[1] != 0.0 and math.isfinite(y):
+        y = fir_update(f_lat, y)  # NOTES.md denoiser (2T - 3d)
+    delta = intelligent_step(p_lat, s_lat, y, yr, yrd, yrdd)
+    if coef[4] != 0.0:
+        # parameter-free yaw damper (MfcNaturalSettings.yaw_damping): r - Vx kappa(s)
+        dr = meas[5] - meas[3] * cref[8]
+        if math.isfinite(dr):
+            if coef[6] != 0.0:
+                dr = fir_update(f_yaw, dr)  # NOTES.md denoiser (2T - 3d)
+            delta -= coef[4] * dr
+    return tw, delta
+
+
+def f_hat_index() -> int:
+    """Index of the last F estimate in an intelligent controller's state array."""
+    return int(IST.F_HAT)

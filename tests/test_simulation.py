@@ -1,0 +1,204 @@
+"""The closed-loop engine: determinism, seeding, faults and statuses (never an exception), the
+path schedule, the Python-controller door, the flatness wiring and the yaw damper's law.
+
+Whole-lap tracking figures of the paper's controllers are in tests/test_paper_scenarios.py;
+these tests check the engine's contracts on short runs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from flatfree.metrics import compute_metrics
+from flatfree.scenario import Fault, FrictionPatch, ReferenceSpec, RoadSpec, Scenario, Timing
+from flatfree.scenarios import REALISTIC_SENSORS
+from flatfree.simulation import simulate
+from flatfree.trajectory import Status
+
+# the paper scenarios' sensors (flatfree.scenarios documents each sigma; the first version here
+# had 1 cm of white position noise at 1 kHz, far noisier than an RTK-INS's sample jitter)
+NOISY = REALISTIC_SENSORS
+
+
+def _scenario(**kw) -> Scenario:
+    base = dict(plant="10dof", controller="mfc-natural",
+                reference=ReferenceSpec(track="Norisring", a_lat_max=3.0),
+                timing=Timing(duration_s=4.0, log_dt_s=0.01), sensors=NOISY, seed=1)
+    base.update(kw)
+    return Scenario(**base)
+
+
+def _finite(tr) -> bool:
+    return all(np.all(np.isfinite(tr[k])) for k in ("x", "y", "vx", "e_y", "steer", "torque"))
+
+
+def test_same_seed_bit_identical_other_seed_different():
+    a = simulate(_scenario())
+    b = simulate(_scenario())
+    assert a.status is Status.COMPLETED and len(a) == 400
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+    c = simulate(_scenario(seed=2))
+    assert not np.array_equal(a["meas_vx"], c["meas_vx"])
+    # the noise is what differs: the measured speed error's spread is the sensor's sigma
+    dv = a["meas_vx"][1:] - a["vx"][1:]
+    assert np.std(dv) == pytest.approx(0.05, rel=0.2)  # 400 samples: sampling spread ~4 %
+
+
+def test_noise_switch_gives_exact_measurements():
+    tr = simulate(_scenario(noise=False))
+    np.testing.assert_array_equal(tr["meas_vx"], tr["vx"])
+
+
+def test_metrics_of_a_short_gentle_run():
+    """A gentle profile (3 m/s^2 lateral) on the 10DoF plant with noise: the loop tracks.
+
+    Measured with the default settings: max lateral error 7.8 / 7.8 / 8.7 mm for seeds 1 / 2 / 3
+    (the start: hard braking from 37.6 m/s into the first corner). The bound, 2 cm, is the
+    issue's target; the whole-lap figures are in tests/paper_scenario_bounds.json.
+    """
+    m = compute_metrics(simulate(_scenario()))
+    assert m.status == "completed"
+    assert m.lateral_error_max_m < 0.02
+    assert math.isfinite(m.real_time_factor) and m.real_time_factor > 0
+
+
+@pytest.mark.parametrize(
+    "fault",
+    [
+        Fault(kind="nan_measurement", channel="x", t_start_s=2.0, duration_s=0.05),
+        Fault(kind="nan_measurement", channel="vx", t_start_s=2.0, duration_s=0.05),
+        Fault(kind="steer_limit", t_start_s=1.5, duration_s=1.0, value=0.005),
+    ],
+)
+def test_faults_end_with_a_status_and_finite_numbers(fault):
+    tr = simulate(_scenario(faults=(fault,)))
+    assert isinstance(tr.status, Status)
+    assert _finite(tr)
+    if fault.kind == "steer_limit":
+        window = (tr.time >= 1.5) & (tr.time < 2.5)
+        assert np.all(np.abs(tr["steer"][window]) <= 0.005 + 1e-12)
+
+
+def test_low_friction_patch():
+    patch = FrictionPatch(s_start_m=0.0, s_end_m=80.0, mu=0.5)
+    tr = simulate(_scenario(road=RoadSpec(mu=1.0, patches=(patch,))))
+    assert isinstance(tr.status, Status) and _finite(tr)
+    mu = tr["mu_front"]
+    assert mu[0] == 0.5 and mu[-1] == 1.0
+
+
+def test_leaving_the_track_is_a_status_not_an_exception():
+    """The steering locked straight (a steer_limit fault of 0 rad) through the first corners: the
+    car must leave the track; the run ends with that status and its time, without raising."""
+    lock = Fault(kind="steer_limit", t_start_s=0.0, duration_s=20.0, value=0.0)
+    sc = _scenario(faults=(lock,), timing=Timing(duration_s=20.0))
+    tr = simulate(sc)
+    assert tr.status is Status.LEFT_TRACK
+    assert tr.status_time is not None and tr.status_time < 20.0
+    assert compute_metrics(tr).status == tr.status.value
+    assert _finite(tr)
+
+
+def test_path_schedule_reads_the_reference_at_the_measured_arc_length():
+    """With exact sensors the controller's reference time is the reference's time at the car's
+    own arc length (the loop's compiled interpolation vs np.interp: rounding only)."""
+    from flatfree.simulation import prepare
+
+    sc = _scenario(noise=False, timing=Timing(duration_s=6.0, log_dt_s=0.01))
+    tr = simulate(sc)
+    ref = prepare(sc).reference
+    expected = np.interp(tr["s"], ref["s_path"], ref["t"])
+    np.testing.assert_allclose(tr["t_ref"], expected, rtol=0, atol=1e-9)
+    # and vx_ref is the profile at that time, not at the clock
+    np.testing.assert_allclose(tr["vx_ref"], np.interp(expected, ref["t"], ref["vx"]),
+                               rtol=0, atol=1e-9)
+    clock = _scenario(noise=False, timing=Timing(duration_s=6.0, log_dt_s=0.01),
+                      controller_settings={"schedule": "time"})
+    np.testing.assert_allclose(simulate(clock)["t_ref"], tr.time, rtol=0, atol=1e-12)
+
+
+def test_yaw_damper_term_is_minus_k_r_times_r_minus_vx_kappa():
+    """First control step (estimator window not full: the iPD holds 0): the steer is the
+    damper's term alone, -k_r (r - vx kappa), to rounding."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import CREF, MEAS, MfcNaturalSettings, build_mfc, vehicle_step
+    from flatfree.vehicles import load_vehicle
+
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    st = MfcNaturalSettings(yaw_damping=0.3, denoise_yaw=0)
+    c = build_mfc("mfc-natural", st, dt=0.001, actuators=act)
+    meas = np.zeros(len(MEAS))
+    meas[MEAS.VX], meas[MEAS.R], meas[MEAS.E_Y] = 20.0, 0.25, 0.01
+    cref = np.zeros(len(CREF))
+    cref[CREF.VX], cref[CREF.KAPPA] = 20.0, 0.01
+    _, delta = vehicle_step(c.kind, c.p_lon, c.s_lon, c.p_lat, c.s_lat, c.coef, c.f_lon, c.f_lat,
+                            c.f_yaw, meas, cref, math.nan, math.nan)
+    assert delta == pytest.approx(-0.3 * (0.25 - 20.0 * 0.01), rel=1e-12)
+
+
+def test_flatness_runs_in_the_loop_and_plans_with_its_own_model():
+    from flatfree.controllers.vehicle import CREF
+    from flatfree.simulation import prepare
+
+    exact = _scenario(controller="flatness", noise=False)
+    mism = _scenario(controller="flatness", noise=False,
+                     controller_settings={"cf_scale": 0.3, "cr_scale": 0.3})
+    # the y2 reference (lf m vy_ref - Iz r_ref) comes from the controller's model (measured:
+    # the two differ by 1.7x the exact one's range; 0.1 only asks that they differ materially)
+    y2e = prepare(exact).cref[:, 1 + CREF.Y2]
+    y2m = prepare(mism).cref[:, 1 + CREF.Y2]
+    assert np.max(np.abs(y2e - y2m)) > 0.1 * np.max(np.abs(y2e))
+    tr = simulate(exact)
+    assert tr.status is Status.COMPLETED and _finite(tr)
+    # exact model on a gentle profile: the speed loop (PI, poles -2, -3) tracks; measured
+    # 0.009 m/s RMS after 1 s while the reference brakes at up to 6 m/s^2 (an open speed loop
+    # would be metres per second off); 0.1 m/s leaves room for plant changes
+    assert np.sqrt(np.mean((tr["vx"] - tr["vx_ref"])[100:] ** 2)) < 0.1
+
+
+class _WrappedNatural:
+    """A Python controller that calls the built-in natural-output kernel itself."""
+
+    schedule = "path"
+
+    def __init__(self, sc):
+        from flatfree.actuators import ActuatorParams
+        from flatfree.controllers.vehicle import MfcNaturalSettings, build_mfc
+        from flatfree.vehicles import load_vehicle
+
+        act = ActuatorParams.from_vehicle(load_vehicle(sc.vehicle))
+        self.c = build_mfc("mfc-natural", MfcNaturalSettings(), dt=sc.timing.control_dt_s,
+                           actuators=act)
+        self.calls = 0
+
+    def reset(self):
+        self.c.reset()
+
+    def step(self, t, measurement, reference, applied):
+        from flatfree.controllers.vehicle import vehicle_step
+
+        self.calls += 1
+        c = self.c
+        return vehicle_step(c.kind, c.p_lon, c.s_lon, c.p_lat, c.s_lat, c.coef, c.f_lon, c.f_lat,
+                            c.f_yaw, measurement, reference, applied[0], applied[1])
+
+
+def test_python_controller_door_gives_the_compiled_result_bit_for_bit():
+    """The same kernel called from Python through the pausing loop: identical trajectories
+    (the engine, sensors, actuators and logging are shared; only the door differs)."""
+    sc = _scenario(timing=Timing(duration_s=1.5, log_dt_s=0.01))
+    ref_run = simulate(sc)
+    wrapped = _WrappedNatural(sc)
+    py_run = simulate(sc, controller=wrapped)
+    assert wrapped.calls == 1500
+    assert py_run.meta["controller"] == "python:_WrappedNatural"
+    for k in ref_run:
+        if k in ("f_lon", "f_lat"):  # controller internals: only the built-in door logs them
+            continue
+        np.testing.assert_array_equal(py_run[k], ref_run[k], err_msg=k)
+    with pytest.raises(ValueError, match="step"):
+        simulate(sc, controller=object())
