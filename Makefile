@@ -26,9 +26,12 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 	touch $@
 
 demo: $(VENV)/.installed
-	$(PY) -m flatfree.demo
+	$(VENV)/bin/flatfree demo
 
+# The HTML report's browser test needs headless Chromium (Debian packages): installed here when
+# possible (root + apt-get), otherwise the test skips with a clear message.
 test: $(VENV)/.installed-test
+	bash tools/install_browser.sh
 	$(PY) -m pytest -q
 
 bench: $(VENV)/.installed-bench

@@ -1,0 +1,980 @@
+"""The ``flatfree`` command line: reproduce the paper, run a scenario, list data, benchmark.
+
+A thin layer (DESIGN.md): parse the options, build a :class:`~flatfree.scenario.Scenario`, call
+:func:`flatfree.simulation.simulate`, :func:`flatfree.metrics.compute_metrics`,
+:mod:`flatfree.plotting` and :mod:`flatfree.report`, write files. Commands::
+
+    flatfree demo       the paper's scenarios, a table beside the paper's figures, a report
+    flatfree run        one run (a TOML file, a named scenario, or options)
+    flatfree tracks     the bundled tracks and recordings
+    flatfree vehicles   the vehicle presets
+    flatfree scenario new FILE   a commented TOML template
+    flatfree bench      speed of the library on this machine
+
+Exit codes: 0 success; 1 the run failed (its status is not ``completed``); 2 bad usage or bad
+input (unknown name, malformed file, an option the chosen controller does not take, a feature
+the closed loop does not provide yet). Messages go to stderr; ``--json`` prints exactly one JSON
+object on stdout.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from flatfree import __version__
+
+__all__ = ["main", "count_corners", "SCENARIO_TEMPLATE"]
+
+CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+#: Keys every ``run --json`` object has (the issue's list, and a few more).
+JSON_KEYS = ("controller", "track", "status", "lateral_error_max_m", "lateral_error_rms_m",
+             "yaw_error_max_deg", "yaw_error_rms_deg", "speed_error_rms_mps",
+             "real_time_factor")
+#: The paper's three controllers, in the paper's order, and the named scenario of each.
+PAPER_RUNS = (("flatness", "paper-flatness"), ("mfc-flat", "paper-mfc-flat"),
+              ("mfc-natural", "paper"))
+#: Default output folder of ``demo``.
+DEFAULT_OUT = "flatfree-out"
+
+
+class InputError(click.ClickException):
+    """Bad usage or input: printed as ``Error: ...``, exit code 2."""
+
+    exit_code = 2
+
+
+def _fail(msg: str) -> InputError:
+    return InputError(msg)
+
+
+def _err(msg: str) -> None:
+    click.echo(msg, err=True)
+
+
+# ------------------------------------------------------------------------------------------
+# Named scenarios (flatfree.scenarios, issue 7)
+# ------------------------------------------------------------------------------------------
+def _scenarios_module():
+    try:
+        import flatfree.scenarios as mod
+    except ImportError as exc:  # pragma: no cover - depends on the build
+        raise _fail(f"named scenarios need flatfree.scenarios, which this build lacks ({exc})")
+    return mod
+
+
+def _named(name: str, **kw):
+    mod = _scenarios_module()
+    try:
+        return mod.named_scenario(name, **kw)
+    except ValueError as exc:
+        raise _fail(str(exc)) from None
+
+
+# ------------------------------------------------------------------------------------------
+# the main group
+# ------------------------------------------------------------------------------------------
+@click.group(context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree demo --out flatfree-out      the paper reproduced, report in flatfree-out/report.html
+  flatfree run --controller mfc-natural --track Monza --json
+  flatfree run my_scenario.toml --seed 3 --out run1
+  flatfree run --recording LVMS_23_01_04_B --json
+  flatfree tracks
+  flatfree scenario new my_scenario.toml
+
+Exit codes: 0 success, 1 the run failed (status not completed), 2 bad usage or input.""")
+@click.version_option(__version__, "-V", "--version", prog_name="flatfree")
+def main() -> None:
+    """flatfree: flatness-based and model-free control of autonomous cars."""
+
+
+# ------------------------------------------------------------------------------------------
+# tracks and vehicles
+# ------------------------------------------------------------------------------------------
+#: A corner is a stretch where the path's radius is below this [m] (|kappa| >= 1/R) ...
+CORNER_RADIUS_M = 300.0
+#: ... over at least this length [m] ...
+CORNER_MIN_LENGTH_M = 15.0
+#: ... and two such stretches turning the same way closer than this [m] are one corner.
+CORNER_MERGE_GAP_M = 50.0
+
+
+def count_corners(kappa: np.ndarray, ds: float, closed: bool) -> int:
+    """Number of corners of a path sampled every ``ds`` metres with curvature ``kappa``.
+
+    A corner is a maximal stretch with radius below :data:`CORNER_RADIUS_M` (``|kappa| >=
+    1/R``) turning one way, at least :data:`CORNER_MIN_LENGTH_M` long; stretches turning the
+    same way with a gap below :data:`CORNER_MERGE_GAP_M` count as one (a corner whose radius
+    wobbles around the threshold). On a closed path a corner across the start counts once.
+    This is a display convention of ``flatfree tracks``, not a racing definition.
+    """
+    k = np.asarray(kappa, dtype=float)
+    if k.ndim != 1 or not (ds > 0):
+        raise ValueError("count_corners: kappa must be 1-D and ds > 0")
+    sign = np.where(np.abs(k) >= 1.0 / CORNER_RADIUS_M, np.sign(k), 0.0)
+    runs: list[list[float]] = []  # [start index, stop index, sign]
+    i = 0
+    n = sign.size
+    while i < n:
+        if sign[i] == 0.0:
+            i += 1
+            continue
+        j = i
+        while j < n and sign[j] == sign[i]:
+            j += 1
+        runs.append([i, j, sign[i]])
+        i = j
+    merged: list[list[float]] = []
+    gap = CORNER_MERGE_GAP_M / ds
+    for r in runs:
+        if merged and merged[-1][2] == r[2] and r[0] - merged[-1][1] < gap:
+            merged[-1][1] = r[1]
+        else:
+            merged.append(list(r))
+    if closed and len(merged) > 1 and merged[0][2] == merged[-1][2] \
+            and merged[0][0] + (n - merged[-1][1]) < gap:
+        last = merged.pop()
+        merged[0][0] = last[0] - n  # wraps: length = stop - start stays right
+    return sum(1 for a, b, _ in merged if (b - a) * ds >= CORNER_MIN_LENGTH_M)
+
+
+_LICENSES = {
+    "track": "LGPL-3.0 (TUMFTM racetrack-database; (c) OpenStreetMap contributors)",
+    "LVMS": "GPL-3.0 (built from the bound files of the linklab-uva/deep-dynamics data)",
+    "recording": "GPL-3.0 (linklab-uva/deep-dynamics)",
+}
+
+
+@main.command(context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree tracks
+  flatfree tracks --json""")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of a table.")
+def tracks(as_json: bool) -> None:
+    """The bundled tracks (length, corners, license) and recordings.
+
+    A track name (case-insensitive) or the path of a CSV file (TUMFTM x_m, y_m, w_tr_right_m,
+    w_tr_left_m; plain x, y; or the recording format) goes to `flatfree run --track`; a
+    recording to `flatfree run --recording`. Corners: stretches of radius below
+    300 m over at least 15 m (`flatfree.cli.count_corners`).
+    """
+    from flatfree.tracks import load_recording, load_track, recording_names, track_names
+
+    rows = []
+    for name in track_names():
+        tr = load_track(name)
+        rows.append({"name": name, "length_m": round(tr.length, 1),
+                     "corners": count_corners(tr.kappa, tr.ds, tr.closed),
+                     "closed": tr.closed,
+                     "license": _LICENSES["LVMS" if name == "LVMS" else "track"]})
+    recs = []
+    for name in recording_names():
+        rec = load_recording(name)
+        t = rec.t
+        recs.append({"name": name, "duration_s": round(float(t[-1] - t[0]), 1),
+                     "samples": len(rec), "license": _LICENSES["recording"]})
+    if as_json:
+        click.echo(json.dumps({"tracks": rows, "recordings": recs}))
+        return
+    click.echo(f"{'track':12s} {'length':>9s} {'corners':>8s}  {'loop':4s}  license")
+    for r in rows:
+        click.echo(f"{r['name']:12s} {r['length_m'] / 1000:7.3f}km {r['corners']:8d}  "
+                   f"{'yes' if r['closed'] else 'no':4s}  {r['license']}")
+    click.echo("")
+    click.echo(f"{'recording':18s} {'duration':>9s} {'samples':>8s}  license")
+    for r in recs:
+        click.echo(f"{r['name']:18s} {r['duration_s']:8.1f}s {r['samples']:8d}  {r['license']}")
+
+
+@main.command(context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree vehicles
+  flatfree run --vehicle bmw320i --controller mfc-natural""")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of a table.")
+def vehicles(as_json: bool) -> None:
+    """The vehicle presets (sources: the TOML files in flatfree/vehicles/data)."""
+    from flatfree.vehicles import load_vehicle, vehicle_names
+
+    rows = []
+    for name in vehicle_names():
+        v = load_vehicle(name)
+        rows.append({"name": name, "drive": v.drive, "mass_kg": v.mass,
+                     "wheelbase_m": v.wheelbase, "iz_kgm2": v.iz,
+                     "max_power_kw": v.max_power / 1000.0,
+                     "tires": f"{v.tire_front.name} / {v.tire_rear.name}"})
+    if as_json:
+        click.echo(json.dumps({"vehicles": rows}))
+        return
+    click.echo(f"{'preset':14s} {'drive':6s} {'mass':>8s} {'wheelbase':>9s} {'Iz':>10s} "
+               f"{'power':>7s}  tyres (front / rear)")
+    for r in rows:
+        click.echo(f"{r['name']:14s} {r['drive']:6s} {r['mass_kg']:6.0f}kg "
+                   f"{r['wheelbase_m']:8.3f}m {r['iz_kgm2']:7.0f}kgm2 "
+                   f"{r['max_power_kw']:5.0f}kW  {r['tires']}")
+
+
+# ------------------------------------------------------------------------------------------
+# scenario new
+# ------------------------------------------------------------------------------------------
+SCENARIO_TEMPLATE = '''\
+# A flatfree scenario: one closed-loop run. Run it with
+#     flatfree run THIS_FILE.toml [--json] [--out DIR]
+# Every key is optional; the values below are the defaults of flatfree.scenario unless a
+# comment says otherwise. SI units; a unit is part of a key's name where it is not obvious.
+
+name = "my-scenario"
+description = "the paper's car on Norisring, model-free control on natural outputs"
+vehicle = "peugeot406"      # a preset (flatfree vehicles) or the path of a vehicle TOML file
+plant = "10dof"             # "10dof" (validation model) or "3dof" (the paper's design model)
+controller = "mfc-natural"  # "flatness", "mfc-flat", "mfc-natural"
+noise = true                # false: every sensor noise-free (rates and delays kept)
+seed = 0                    # seed of the sensor noise
+
+# [vehicle_overrides]       # VehicleParams fields, SI, e.g.
+# mass = 1600.0
+
+[controller_settings]       # the chosen controller's own settings; empty: its defaults
+# flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal)
+# mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat
+
+[reference]
+track = "Norisring"         # a bundled track (flatfree tracks) or a CSV path;
+                            # or, instead of track:  recording = "LVMS_23_01_04_B"
+line = "centerline"         # or "raceline"
+lateral_offset_m = 0.0
+laps = 1
+a_lat_max = 6.0             # speed profile: lateral acceleration limit [m/s^2]
+a_drive_max = 3.0           # [m/s^2]
+a_brake_max = 6.0           # [m/s^2]
+v_max = 50.0                # [m/s]
+mu = 1.0                    # friction the speed profile plans with [-]
+
+[timing]
+plant_dt_s = 0.001          # plant RK4 step
+control_dt_s = 0.001        # controller period (a whole multiple of plant_dt_s)
+log_dt_s = 0.01             # logging period (a whole multiple of plant_dt_s)
+startup_s = 1.0
+# duration_s = 60.0         # default: the reference's duration
+
+# one table per measured channel (x, y, psi, vx, vy, r): noise sigma, bias, rate, delay
+[sensors.x]
+noise_std = 0.002           # [m]
+[sensors.y]
+noise_std = 0.002           # [m]
+[sensors.psi]
+noise_std = 0.0017          # [rad]
+[sensors.vx]
+noise_std = 0.05            # [m/s]
+[sensors.vy]
+noise_std = 0.02            # [m/s]
+[sensors.r]
+noise_std = 0.0017          # [rad/s]
+# rate_hz = 100.0
+# delay_s = 0.0
+
+[actuators]
+steer_tau_s = 0.0
+steer_delay_s = 0.0
+torque_tau_s = 0.0
+torque_delay_s = 0.0
+
+[road]
+mu = 1.0
+# [[road.patch]]            # a stretch of lower friction along the path
+# s_start_m = 500.0
+# s_end_m = 600.0
+# mu = 0.5
+
+# [[fault]]                 # a measurement that reads NaN for a while
+# kind = "nan_measurement"  # or "steer_limit" (with value = the limit [rad])
+# channel = "x"
+# t_start_s = 10.0
+# duration_s = 0.05
+'''
+
+
+@main.group(context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree scenario new my_scenario.toml""")
+def scenario() -> None:
+    """Scenario files (TOML)."""
+
+
+@scenario.command("new", context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree scenario new my_scenario.toml
+  flatfree run my_scenario.toml""")
+@click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--force", is_flag=True, help="Overwrite FILE if it exists.")
+def scenario_new(file: Path, force: bool) -> None:
+    """Write a commented TOML template to FILE, to edit and run with `flatfree run FILE`."""
+    if file.exists() and not force:
+        raise _fail(f"{file} exists; use --force to overwrite it")
+    if not file.parent.exists():
+        raise _fail(f"folder {file.parent} does not exist")
+    file.write_text(SCENARIO_TEMPLATE, encoding="utf-8")
+    _err(f"wrote {file}")
+
+
+# ------------------------------------------------------------------------------------------
+# run
+# ------------------------------------------------------------------------------------------
+def _vehicle_option(ctx, param, value: str | None) -> str | None:
+    if value is None:
+        return None
+    from flatfree.vehicles import vehicle_names
+
+    if Path(value).is_file():
+        return value
+    names = vehicle_names()
+    if value in names:
+        return value
+    by_lower = {n.lower(): n for n in names}
+    if value.lower() in by_lower:
+        return by_lower[value.lower()]
+    raise click.BadParameter(f"unknown vehicle {value!r}; presets: {', '.join(names)}; "
+                             "or the path of a vehicle TOML file")
+
+
+def _controller_choices() -> list[str]:
+    from flatfree.scenario import CONTROLLERS
+
+    return list(CONTROLLERS)
+
+
+def _positive_float(ctx, param, value):
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise click.BadParameter(f"{value!r}: must be a finite number > 0")
+    return value
+
+
+def _load_base(spec: str | None, recording: str | None):
+    """The scenario a run starts from: a TOML file, a named scenario, or the default."""
+    from flatfree.scenario import load_scenario
+
+    if spec is None:
+        return _named("recorded" if recording is not None else "paper")
+    p = Path(spec)
+    if p.is_file() or spec.lower().endswith(".toml"):
+        try:
+            return load_scenario(p)
+        except ValueError as exc:
+            raise _fail(str(exc)) from None
+    names = _scenarios_module().SCENARIO_NAMES
+    if spec in names:
+        return _named(spec)
+    raise _fail(f"unknown scenario {spec!r}: give a TOML file, or a named scenario: "
+                f"{', '.join(names)}")
+
+
+def build_scenario(spec: str | None = None, *, controller: str | None = None,
+                   track: str | None = None, recording: str | None = None,
+                   vehicle: str | None = None, cf_scale: float | None = None,
+                   cr_scale: float | None = None, noise: bool | None = None,
+                   seed: int | None = None, duration_s: float | None = None):
+    """The scenario of ``flatfree run``: the base (file, name or default) with the options.
+
+    ``--controller`` different from the scenario's drops the scenario's controller settings
+    (they belong to the other controller); ``--cf-scale``/``--cr-scale`` go into the
+    controller settings (only the flatness controller takes them: another one refuses them
+    when the run starts). Raises :class:`InputError` (exit 2) on bad input.
+    """
+    from flatfree.scenario import Scenario
+
+    if track is not None and recording is not None:
+        raise _fail("give --track or --recording, not both")
+    sc: Scenario = _load_base(spec, recording)
+    try:
+        changes: dict[str, Any] = {}
+        settings = dict(sc.controller_settings)
+        if controller is not None and controller != sc.controller:
+            changes["controller"] = controller
+            settings = {}
+        if cf_scale is not None:
+            settings["cf_scale"] = cf_scale
+        if cr_scale is not None:
+            settings["cr_scale"] = cr_scale
+        changes["controller_settings"] = settings
+        if track is not None:
+            changes["reference"] = dataclasses.replace(sc.reference, track=track,
+                                                       recording=None)
+        if recording is not None:
+            changes["reference"] = dataclasses.replace(sc.reference, track=None,
+                                                       recording=recording)
+        if vehicle is not None:
+            changes["vehicle"] = vehicle
+        if noise is not None:
+            changes["noise"] = noise
+        if seed is not None:
+            changes["seed"] = seed
+        if duration_s is not None:
+            changes["timing"] = dataclasses.replace(sc.timing, duration_s=duration_s)
+        return sc.with_(**changes)
+    except ValueError as exc:
+        raise _fail(str(exc)) from None
+
+
+def _simulate(sc):
+    """simulate(sc); a ValueError (bad input, unsupported feature) becomes exit code 2."""
+    from flatfree.simulation import simulate
+
+    try:
+        return simulate(sc)
+    except ValueError as exc:
+        raise _fail(f"scenario {sc.name!r}, controller {sc.controller}: {exc}") from None
+
+
+def _time_axis(tr) -> np.ndarray:
+    return np.asarray(tr["t_ref"]) if "t_ref" in tr else tr.time
+
+
+def recorded_steer_of(runs: Sequence, sc) -> list[np.ndarray]:
+    """The recording's steer [rad] at the samples of each trajectory in ``runs``.
+
+    Read on each run's reference clock (``t_ref`` when logged) through
+    :func:`flatfree.scenarios.recorded_steer`, called once for all runs (it builds the
+    recording's reference).
+    """
+    clocks = [_time_axis(tr) for tr in runs]
+    if not clocks:
+        return []
+    rec = _scenarios_module().recorded_steer(np.concatenate(clocks), sc)
+    return np.split(rec, np.cumsum([c.size for c in clocks])[:-1])
+
+
+def steer_rms_vs_recorded_deg(tr, recorded: np.ndarray, startup_s: float | None = None
+                              ) -> float:
+    """RMS of (the applied steer - the recorded steer) [deg] after the start-up interval.
+
+    ``recorded``: the recorded steer [rad] at the samples of ``tr``
+    (:func:`recorded_steer_of`). Non-finite samples are left out; NaN when none is left.
+    """
+    from flatfree.metrics import DEFAULT_STARTUP_S
+
+    startup = DEFAULT_STARTUP_S if startup_s is None else startup_s
+    keep = tr.time >= tr.time[0] + startup
+    d = np.asarray(tr["steer"])[keep] - np.asarray(recorded)[keep]
+    d = d[np.isfinite(d)]
+    return math.degrees(float(np.sqrt(np.mean(d * d)))) if d.size else math.nan
+
+
+def _run_json(sc, tr, metrics, extra: dict[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "scenario": sc.name,
+        "controller": sc.controller,
+        "track": sc.reference.track if sc.reference.track is not None else sc.reference.recording,
+        "vehicle": sc.vehicle,
+        "plant": sc.plant,
+        "noise": sc.noise,
+        "seed": sc.seed,
+    }
+    out.update(metrics.to_dict())
+    out["status_time_s"] = tr.status_time
+    out.update({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                for k, v in extra.items()})
+    return out
+
+
+def _reference_xy(sc):
+    """The desired path (x, y) of a scenario, for the figures."""
+    from flatfree.simulation import prepare
+
+    ref = prepare(sc).reference
+    return np.asarray(ref["x"]), np.asarray(ref["y"])
+
+
+@main.command(context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree run                                   the paper's scenario (mfc-natural, Norisring)
+  flatfree run --controller mfc-flat --track Monza --json
+  flatfree run --controller flatness --cf-scale 0.3 --cr-scale 0.3
+  flatfree run my_scenario.toml --no-noise --seed 2 --out run1
+  flatfree run paper-mismatch                    a named scenario
+  flatfree run --recording LVMS_23_01_04_B --json     adds steer_rms_vs_recorded_deg
+  flatfree run --track my_track.csv --duration 30
+
+\b
+Named scenarios: paper, paper-mfc-flat, paper-flatness, paper-mismatch, recorded, and their
+-noise-free variants. Exit codes: 0 completed, 1 the run did not complete (left the track,
+non-finite state), 2 bad usage or input.""")
+@click.argument("scenario_file", metavar="[SCENARIO]", required=False)
+@click.option("--controller", type=click.Choice(_controller_choices(), case_sensitive=False),
+              help="Controller (default: the scenario's).")
+@click.option("--track", metavar="NAME_OR_CSV",
+              help="Bundled track (case-insensitive, see `flatfree tracks`) or a CSV path.")
+@click.option("--recording", metavar="NAME_OR_CSV",
+              help="Follow a recording's own path, speed and timing (without SCENARIO: "
+                   "the recorded scenario, dallara_av21); --json adds "
+                   "steer_rms_vs_recorded_deg.")
+@click.option("--vehicle", metavar="PRESET", callback=_vehicle_option,
+              help="Vehicle preset (see `flatfree vehicles`) or a vehicle TOML path.")
+@click.option("--cf-scale", type=float, callback=_positive_float, metavar="X",
+              help="Flatness controller: its model's front cornering stiffness x nominal.")
+@click.option("--cr-scale", type=float, callback=_positive_float, metavar="X",
+              help="Flatness controller: its model's rear cornering stiffness x nominal.")
+@click.option("--noise/--no-noise", default=None, help="Sensor noise on or off "
+              "(default: the scenario's).")
+@click.option("--seed", type=click.IntRange(min=0), help="Seed of the sensor noise.")
+@click.option("--duration", "duration_s", type=float, callback=_positive_float, metavar="S",
+              help="Stop after S seconds (default: one lap, or the whole recording).")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Write scenario.toml, trajectory.parquet, metrics.json, figures and "
+                   "report.html into this folder.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print exactly one JSON object (metrics and settings) on stdout.")
+def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale, noise, seed,
+        duration_s, out_dir, as_json) -> None:
+    """Run one closed-loop scenario and print its metrics.
+
+    SCENARIO is a TOML file (see `flatfree scenario new`) or a named scenario; without it the
+    paper's scenario (or, with --recording, the recorded one) is the base, and the options
+    change it.
+    """
+    from flatfree.metrics import compute_metrics
+    from flatfree.report import RunResult, format_table
+
+    if controller is not None:
+        controller = controller.lower()
+    sc = build_scenario(scenario_file, controller=controller, track=track,
+                        recording=recording, vehicle=vehicle, cf_scale=cf_scale,
+                        cr_scale=cr_scale, noise=noise, seed=seed, duration_s=duration_s)
+    if noise and not any(c.noise_std > 0 for c in sc.sensors.channels.values()):
+        _err(f"note: --noise has no effect: scenario {sc.name!r} gives no sensor a noise_std")
+    tr = _simulate(sc)
+    m = compute_metrics(tr, startup_s=sc.timing.startup_s)
+    extra: dict[str, float] = {}
+    rec = None
+    if sc.reference.recording is not None:
+        (rec,) = recorded_steer_of([tr], sc)
+        extra["steer_rms_vs_recorded_deg"] = steer_rms_vs_recorded_deg(
+            tr, rec, sc.timing.startup_s)
+    result = RunResult(label=sc.controller, scenario=sc, trajectory=tr, metrics=m, extra=extra)
+    payload = _run_json(sc, tr, m, extra)
+    if out_dir is not None:
+        _write_run(out_dir, result, payload, rec)
+    if as_json:
+        click.echo(json.dumps(payload))
+    else:
+        where = sc.reference.track or sc.reference.recording
+        click.echo(f"{sc.name}: {sc.controller} on {where}, {sc.vehicle}, {sc.plant} plant, "
+                   f"noise {'on' if sc.noise else 'off'}, seed {sc.seed}")
+        click.echo(format_table([result]))
+        for k, v in extra.items():
+            click.echo(f"{k}: {v:.3f}")
+        if tr.status_time is not None:
+            click.echo(f"the run stopped at t = {tr.status_time:.2f} s: {tr.status.value}")
+        if out_dir is not None:
+            click.echo(f"wrote {out_dir}/report.html")
+    if not tr.completed:
+        sys.exit(1)
+
+
+def _write_run(out_dir: Path, result, payload: dict[str, Any],
+               recorded: np.ndarray | None = None) -> None:
+    """Write a run's scenario, trajectory, metrics, figures and report into ``out_dir``."""
+    from flatfree.report import write_report
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    sc, tr = result.scenario, result.trajectory
+    sc.save(out_dir / "scenario.toml")
+    tr.to_parquet(out_dir / "trajectory.parquet")
+    (out_dir / "metrics.json").write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
+    runs = {sc.controller: tr}
+    ref_xy = _reference_xy(sc)
+    figs = []
+    # the recorded steer at each logged sample (read at the run's reference time), drawn on
+    # the run's clock like the run's own steer: the pairs that steer_rms_vs_recorded_deg uses
+    rec = None if recorded is None else (tr.time, recorded)
+    for stem, caption, draw in _run_figures(runs, ref_xy, rec):
+        figs.append((caption, _draw(out_dir / "figures", stem, draw)))
+    write_report(out_dir / "report.html", [result], figs,
+                 title=f"flatfree run: {sc.name}, {sc.controller}")
+
+
+def _draw(folder: Path, stem: str, draw: Callable) -> Path:
+    """Draw with ``draw() -> (fig, axes)`` and save PNG and SVG; return the PNG path."""
+    from flatfree import plotting as pl
+
+    fig, _ = draw()
+    return pl.save_figure(fig, folder, stem)[0]
+
+
+def _run_figures(runs, ref_xy, recorded_steer=None):
+    """(stem, caption, draw) of the figures of a set of runs on one reference."""
+    from flatfree import plotting as pl
+
+    def paths():
+        fig, ax = pl.new_figure(7.5, 6.0)
+        pl.plot_paths(ax[0, 0], runs, reference=ref_xy)
+        return fig, ax
+
+    def errors():
+        fig, ax = pl.new_figure(8.0, 6.0, nrows=2)
+        pl.plot_lateral_error(ax[0, 0], runs)
+        pl.plot_yaw_error(ax[1, 0], runs)
+        return fig, ax
+
+    def inputs():
+        fig, ax = pl.new_figure(8.0, 6.0, nrows=2)
+        pl.plot_torque(ax[0, 0], runs)
+        pl.plot_steer(ax[1, 0], runs, reference=recorded_steer)
+        return fig, ax
+
+    def f_est():
+        fig, ax = pl.new_figure(8.0, 6.0, nrows=2)
+        pl.plot_f_estimate(ax[0, 0], runs, loop="lon")
+        pl.plot_f_estimate(ax[1, 0], runs, loop="lat")
+        return fig, ax
+
+    def worst(k: str) -> tuple[bool, float]:  # completed runs first, then the smallest error
+        e = np.abs(np.asarray(runs[k]["lateral_error"])) if "lateral_error" in runs[k] else []
+        e = e[np.isfinite(e)] if len(e) else e
+        return (not runs[k].completed, float(np.max(e)) if len(e) else math.inf)
+
+    best = min(runs, key=worst)
+
+    def track_map():
+        fig, ax = pl.new_figure(7.5, 6.0)
+        pl.plot_track_map(ax[0, 0], runs[best], reference=ref_xy)
+        ax[0, 0].set_title(f"track map, |lateral error| ({best})")
+        return fig, ax
+
+    return [
+        ("fig4_paths", "Desired and actual paths, zoom on the worst corner (paper Fig. 4).",
+         paths),
+        ("fig5_errors", "Lateral and yaw errors over time (paper Fig. 5).", errors),
+        ("fig6_inputs", "Wheel torque and steer (paper Fig. 6)"
+         + (" against the recorded steer." if recorded_steer is not None else "."), inputs),
+        ("f_estimates", "Estimated F of the model-free loops over time.", f_est),
+        ("track_map", f"Track map coloured by the lateral error ({best}).", track_map),
+    ]
+
+
+# ------------------------------------------------------------------------------------------
+# demo
+# ------------------------------------------------------------------------------------------
+def _try_run(label: str, sc):
+    """A RunResult: the run, or why it could not be made (a ValueError of the engine)."""
+    from flatfree.metrics import compute_metrics
+    from flatfree.report import RunResult
+    from flatfree.simulation import simulate
+
+    try:
+        tr = simulate(sc)
+    except ValueError as exc:
+        return RunResult(label=label, scenario=sc, error=str(exc))
+    m = compute_metrics(tr, startup_s=sc.timing.startup_s)
+    return RunResult(label=label, scenario=sc, trajectory=tr, metrics=m)
+
+
+@main.command(context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree demo                              writes flatfree-out/report.html
+  flatfree demo --out /tmp/paper --no-noise
+  flatfree demo --track Monza
+  flatfree demo --track Norisring --duration 20 --recording-duration 20   a quick look
+
+\b
+Exit codes: 0 every run was made (a run that leaves the track is a result, shown in the
+table), 2 bad input, or a controller the closed loop does not provide yet (the report is
+still written, with the reason).""")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=DEFAULT_OUT, show_default=True, help="Folder of the report and figures.")
+@click.option("--track", metavar="NAME_OR_CSV", default=None,
+              help="Track of the paper scenarios (default: the scenarios' default track).")
+@click.option("--duration", "duration_s", type=float, callback=_positive_float, metavar="S",
+              help="Stop each track run after S seconds (default: one lap).")
+@click.option("--recording-duration", "rec_duration_s", type=float, callback=_positive_float,
+              metavar="S", help="Stop each recorded run after S seconds (default: all of it).")
+@click.option("--no-recorded", is_flag=True, help="Skip the recorded-reference runs (Fig. 6).")
+@click.option("--noise/--no-noise", default=True, show_default=True, help="Sensor noise.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the sensor noise.")
+@click.option("--progress/--no-progress", default=None,
+              help="Progress bar on stderr (default: when stderr is a terminal).")
+def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, seed,
+         progress) -> None:
+    """Reproduce the paper: its three controllers, figures 2-6, a table, an HTML report.
+
+    Runs the paper's scenarios (the peugeot406 on the 10DoF model, noisy sensors) with the
+    flatness-based controller, model-free control on flat outputs and on natural outputs,
+    the flatness controller with 0.3 Cf, 0.3 Cr (Fig. 2), a braking-in-a-turn maneuver
+    (Fig. 3), and the model-free controllers on the recorded Las Vegas drive (Fig. 6); prints
+    our errors beside the paper's and writes OUT/report.html (self-contained) and
+    OUT/figures/*.png, *.svg.
+    """
+    from tqdm import tqdm
+
+    from flatfree import plotting as pl
+    from flatfree.report import format_table, write_report
+
+    sfx = "" if noise else "-noise-free"
+    kw: dict[str, Any] = {"seed": seed, "duration_s": duration_s}
+    if track is not None:
+        kw["track"] = track
+    tasks: list[tuple[str, str, Any]] = []  # (group, label, scenario)
+    for ctrl, name in PAPER_RUNS:
+        tasks.append(("paper", ctrl, _named(name + sfx, **kw)))
+    tasks.append(("mismatch", "flatness, 0.3 Cf, 0.3 Cr", _named("paper-mismatch" + sfx, **kw)))
+    if not no_recorded:
+        rec = _named("recorded" + sfx, seed=seed, duration_s=rec_duration_s)
+        for ctrl in ("mfc-flat", "mfc-natural"):
+            tasks.append(("recorded", ctrl, rec.with_(controller=ctrl, controller_settings={})
+                          if ctrl != rec.controller else rec))
+    # the desired path (and a check of the track name before the long part)
+    try:
+        ref_xy = _reference_xy(tasks[0][2])
+    except ValueError as exc:
+        raise _fail(str(exc)) from None
+
+    show = sys.stderr.isatty() if progress is None else progress
+    results: dict[str, list] = {"paper": [], "mismatch": [], "recorded": []}
+    t0 = time.perf_counter()
+    bar = tqdm(total=len(tasks) + 2, disable=not show, file=sys.stderr, unit="step",
+               desc="flatfree demo")
+    for group, label, sc in tasks:
+        bar.set_postfix_str(f"{group}: {label}")
+        results[group].append(_try_run(label, sc))
+        bar.update()
+    ran = [r for r in results["recorded"] if r.trajectory is not None]
+    rec_steer = dict(zip([r.label for r in ran], recorded_steer_of(
+        [r.trajectory for r in ran], ran[0].scenario) if ran else [], strict=True))
+    results["recorded"] = [
+        dataclasses.replace(r, extra={"steer_rms_vs_recorded_deg": steer_rms_vs_recorded_deg(
+            r.trajectory, rec_steer[r.label], r.scenario.timing.startup_s)})
+        if r.label in rec_steer else r for r in results["recorded"]]
+    bar.set_postfix_str("braking in a turn (Fig. 3)")
+    fig3 = pl.braking_in_turn("peugeot406")
+    bar.update()
+    bar.set_postfix_str("figures")
+    figdir = out_dir / "figures"
+    paper_runs = {r.label: r.trajectory for r in results["paper"] if r.trajectory is not None}
+    figs: list[tuple[str, Path]] = []
+    notes: list[str] = []
+    # Figure 2: flatness nominal vs mismatch
+    flat_nominal = [r for r in results["paper"] if r.scenario.controller == "flatness"]
+    mism = {**{"nominal Cf, Cr": r.trajectory for r in flat_nominal
+               if r.trajectory is not None},
+            **{r.label: r.trajectory for r in results["mismatch"] if r.trajectory is not None}}
+    if mism:
+        def fig2():
+            fig, ax = pl.new_figure(8.0, 6.0, nrows=2)
+            pl.plot_mismatch(ax[0, 0], mism, signal="lateral_error")
+            pl.plot_mismatch(ax[1, 0], mism, signal="yaw_error")
+            return fig, ax
+        figs.append(("Flatness-based control with nominal and 0.3 Cf, 0.3 Cr cornering "
+                     "stiffness (paper Fig. 2).", _draw(figdir, "fig2_mismatch", fig2)))
+    else:
+        notes.append("Figure 2 (flatness control with mismatched stiffness) is missing: "
+                     + "; ".join(r.error or "" for r in results["mismatch"]))
+
+    def fig3_draw():
+        fig, ax = pl.new_figure(8.0, 4.5)
+        pl.plot_cornering_stiffness(ax[0, 0], fig3)
+        return fig, ax
+    figs.append(("Effective cornering stiffness Fy/alpha of each axle, braking at 5 m/s^2 in "
+                 "a 4 m/s^2 turn at 20 m/s, 10DoF peugeot406 (paper Fig. 3).",
+                 _draw(figdir, "fig3_cornering_stiffness", fig3_draw)))
+    if paper_runs:
+        for stem, caption, draw in _run_figures(paper_runs, ref_xy):
+            if stem == "fig6_inputs":
+                stem, caption = "inputs_track", "Wheel torque and steer on the track runs."
+            figs.append((caption, _draw(figdir, stem, draw)))
+    rec_runs = {r.label: r.trajectory for r in results["recorded"] if r.trajectory is not None}
+    if rec_runs:
+        first = next(iter(rec_runs))
+        rec_ref = (rec_runs[first].time, rec_steer[first])  # as in _write_run
+
+        def fig6():
+            fig, ax = pl.new_figure(8.0, 6.0, nrows=2)
+            pl.plot_torque(ax[0, 0], rec_runs)
+            pl.plot_steer(ax[1, 0], rec_runs, reference=rec_ref)
+            return fig, ax
+        figs.append(("Wheel torque and steer of the model-free controllers against the "
+                     "recorded steer, dallara_av21 on the LVMS recording (paper Fig. 6; the "
+                     "recording has no wheel torque).", _draw(figdir, "fig6_inputs", fig6)))
+    bar.update()
+    bar.close()
+    missing = [r for r in results["paper"] + results["mismatch"] if r.error is not None]
+    for r in missing:
+        notes.append(f"{r.label}: not run: {r.error}")
+    scen = {f"{g}: {r.label}": r.scenario for g in results for r in results[g]}
+    report = write_report(out_dir / "report.html", results["paper"], figs, scenarios=scen,
+                          notes=notes,
+                          extra_tables={k: v for k, v in (
+                              ("Flatness control with 0.3 Cf, 0.3 Cr (paper Fig. 2)",
+                               results["mismatch"]),
+                              ("Recorded reference: dallara_av21 on the LVMS recording",
+                               results["recorded"])) if v})
+    summary = {g: [{"label": r.label, "scenario": r.scenario.name,
+                    **({"error": r.error} if r.error else r.metrics.to_dict()),
+                    **dict(r.extra)} for r in rs] for g, rs in results.items()}
+    (out_dir / "metrics.json").write_text(json.dumps(summary, indent=2, default=str) + "\n",
+                                          encoding="utf-8")
+    click.echo(format_table(results["paper"]))
+    for r in results["recorded"]:
+        if r.metrics is not None:
+            click.echo(f"recorded, {r.label}: max lateral error "
+                       f"{100 * r.metrics.lateral_error_max_m:.2f} cm, steer RMS vs recorded "
+                       f"{r.extra.get('steer_rms_vs_recorded_deg', math.nan):.3f} deg "
+                       f"({r.metrics.status})")
+    click.echo(f"wrote {report} and {len(figs)} figures in {figdir} "
+               f"({time.perf_counter() - t0:.1f} s)")
+    if missing:
+        _err("not every paper run could be made: "
+             + "; ".join(f"{r.label}: {r.error}" for r in missing))
+        sys.exit(2)
+
+
+# ------------------------------------------------------------------------------------------
+# bench
+# ------------------------------------------------------------------------------------------
+def _best(fn: Callable[[], Any], repeats: int) -> float:
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _bench_results(quick: bool) -> dict[str, Any]:
+    from flatfree.controllers.intelligent import IntelligentParams, make_state
+    from flatfree.models.bicycle3dof import Bicycle3DoFParams
+    from flatfree.models.bicycle3dof import simulate as sim3
+    from flatfree.models.tendof import TenDoF
+    from flatfree.vehicles import load_vehicle
+
+    repeats = 2 if quick else 5
+    sim_s = 2.0 if quick else 10.0
+    dt = 1e-3
+    n = int(round(sim_s / dt))
+    vp = load_vehicle("peugeot406")
+    out: dict[str, Any] = {}
+    # open loop, 10DoF
+    model = TenDoF(vp)
+    x0 = model.initial_state(20.0)
+    u = model.inputs(300.0, 0.02, n=n)
+    model.simulate(x0, u[:2], dt)  # compile or load the cache
+    w = _best(lambda: model.simulate(x0, u, dt), repeats)
+    out["open_loop_10dof_real_time_factor"] = sim_s / w
+    # open loop, 3DoF (the paper's design model)
+    bp = Bicycle3DoFParams.from_vehicle(vp)
+    u3 = np.column_stack([np.full(n, 300.0), np.full(n, 0.02)])
+    x3 = np.array([20.0, 0.0, 0.0])
+    sim3(bp, x3, u3[:2], dt)
+    w = _best(lambda: sim3(bp, x3, u3, dt), repeats)
+    out["open_loop_3dof_real_time_factor"] = sim_s / w
+    # one intelligent controller step (iPD with its F estimator), compiled loop
+    p = IntelligentParams(nu=2, alpha=60.0, dt=dt, window=50, kp=16.0, kd=8.0).to_array()
+    s = make_state(p)
+    n_c = 20_000 if quick else 200_000
+    _ctrl_loop(p, s, 10)
+    w = _best(lambda: _ctrl_loop(p, s, n_c), repeats)
+    out["controller_step_ns"] = 1e9 * w / n_c
+    # closed loop, each paper controller (10DoF, 1 kHz, noise)
+    from flatfree.simulation import simulate
+
+    for ctrl, name in PAPER_RUNS:
+        sc = _named(name, duration_s=5.0 if quick else 20.0)
+        try:
+            simulate(sc.with_(timing=dataclasses.replace(sc.timing, duration_s=0.01)))
+            rtf = max(float(simulate(sc).meta.get("real_time_factor", math.nan))
+                      for _ in range(2 if quick else 3))
+        except ValueError as exc:
+            out[f"closed_loop_{ctrl}_real_time_factor"] = None
+            out.setdefault("notes", []).append(f"{ctrl}: {exc}")
+            continue
+        out[f"closed_loop_{ctrl}_real_time_factor"] = rtf
+    # what `flatfree run` costs on the default track: reference, controller and the loop
+    if not quick:
+        sc = _named("paper")
+        t0 = time.perf_counter()
+        tr = simulate(sc)
+        out["paper_run_wall_s"] = time.perf_counter() - t0
+        out["paper_run_simulated_s"] = tr.duration
+    return out
+
+
+def _ctrl_loop(p, s, n):
+    return _ctrl_loop_kernel()(p, s, n, 1e-3)
+
+
+@functools.lru_cache(maxsize=1)
+def _ctrl_loop_kernel():
+    """A compiled loop: an iPD steering a damped mass (so the data change every step)."""
+    from numba import njit
+
+    from flatfree.controllers.intelligent import intelligent_reset, intelligent_step
+
+    @njit(cache=False)
+    def kernel(p, s, n, dt):
+        intelligent_reset(p, s)
+        y = 0.0
+        v = 0.0
+        acc = 0.0
+        for k in range(n):
+            r = math.sin(0.5 * k * dt)
+            u = intelligent_step(p, s, y, r, 0.5 * math.cos(0.5 * k * dt),
+                                 -0.25 * math.sin(0.5 * k * dt))
+            y += dt * v  # a damped mass y'' = -0.5 y' + 60 u
+            v += dt * (-0.5 * v + 60.0 * u)
+            acc += abs(y - r)
+        return acc
+
+    return kernel
+
+
+@main.command(context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree bench
+  flatfree bench --json --quick
+
+Timings are the best of several repeats, after compilation; on a shared or busy machine they
+vary, so compare orders of magnitude.""")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.option("--quick", is_flag=True, help="Shorter runs and fewer repeats (a rough check).")
+def bench(as_json: bool, quick: bool) -> None:
+    """Speed of the library on this machine: open and closed loop, controller step."""
+    from flatfree.report import machine_info
+
+    res = _bench_results(quick)
+    res["machine"] = machine_info()
+    if as_json:
+        click.echo(json.dumps(res))
+        return
+    labels = {
+        "open_loop_10dof_real_time_factor": ("10DoF model, open loop, RK4 1 ms", "x real time"),
+        "open_loop_3dof_real_time_factor": ("3DoF model, open loop, RK4 1 ms", "x real time"),
+        "controller_step_ns": ("iPD step with its F estimator (window 50)", "ns"),
+    }
+    for ctrl, _ in PAPER_RUNS:
+        labels[f"closed_loop_{ctrl}_real_time_factor"] = (
+            f"closed loop {ctrl}, 10DoF at 1 kHz, noise", "x real time")
+    labels["paper_run_wall_s"] = ("paper scenario, one lap: simulate() wall time", "s")
+    labels["paper_run_simulated_s"] = ("  simulated (a lap, or until the run failed)", "s")
+    for k, (text, unit) in labels.items():
+        if k not in res:
+            continue
+        v = res[k]
+        click.echo(f"{text:48s} {'n/a' if v is None else f'{v:12.1f}'} {unit}")
+    for note in res.get("notes", []):
+        click.echo(f"note: {note}")
+    mi = res["machine"]
+    click.echo(f"machine: {mi['cpu']}, {mi['cores']} cores, python {mi['python']}, "
+               f"numba {mi['numba']}, {mi['date (UTC)']} UTC")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main(prog_name="flatfree")

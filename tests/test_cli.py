@@ -1,0 +1,357 @@
+"""The ``flatfree`` command line (issue 8), through click's CliRunner.
+
+Every error path of the issue is exercised: unknown names list the valid ones, a malformed TOML
+file names the line and the field, exit codes are 0 (completed), 1 (status not completed) and 2
+(bad usage or input). Runs are kept short (``--duration``) so that the file stays fast; the
+closed-loop numbers themselves are the engine's business (tests/test_simulation.py): here only
+the plumbing is checked against independent computations.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from flatfree.cli import (
+    CORNER_MERGE_GAP_M,
+    CORNER_MIN_LENGTH_M,
+    CORNER_RADIUS_M,
+    JSON_KEYS,
+    SCENARIO_TEMPLATE,
+    count_corners,
+    main,
+)
+from flatfree.scenario import CONTROLLERS, load_scenario, scenario_from_toml
+from flatfree.tracks import track_names
+from flatfree.trajectory import Trajectory
+from flatfree.vehicles import vehicle_names
+
+SHORT = ["--duration", "3"]
+
+
+@pytest.fixture
+def runner():
+    return CliRunner()
+
+
+def _invoke(runner, args, **kw):
+    return runner.invoke(main, args, catch_exceptions=False, **kw)
+
+
+# ------------------------------------------------------------------------------------------
+# help, tracks, vehicles
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("cmd", [[], ["run"], ["demo"], ["tracks"], ["vehicles"],
+                                 ["scenario"], ["scenario", "new"], ["bench"]])
+def test_help_everywhere_with_examples(runner, cmd):
+    res = _invoke(runner, [*cmd, "--help"])
+    assert res.exit_code == 0
+    assert "Usage:" in res.stdout
+    assert "Examples:" in res.stdout
+
+
+def test_unknown_command_is_usage_error(runner):
+    res = _invoke(runner, ["fly"])
+    assert res.exit_code == 2
+    assert "No such command" in res.stderr
+
+
+def test_tracks_json_lists_every_bundled_track_and_the_recording(runner):
+    res = _invoke(runner, ["tracks", "--json"])
+    assert res.exit_code == 0
+    doc = json.loads(res.stdout)
+    assert [t["name"] for t in doc["tracks"]] == track_names()
+    for t in doc["tracks"]:
+        assert t["length_m"] > 1000.0 and t["corners"] >= 2 and t["closed"]
+        assert ("GPL-3.0" if t["name"] == "LVMS" else "LGPL-3.0") in t["license"]
+    ims = next(t for t in doc["tracks"] if t["name"] == "IMS")
+    assert ims["corners"] == 4  # the Indianapolis oval: four turns
+    assert doc["recordings"][0]["name"] == "LVMS_23_01_04_B"
+    assert "GPL-3.0" in doc["recordings"][0]["license"]
+    text = _invoke(runner, ["tracks"]).stdout
+    assert all(n in text for n in track_names())
+
+
+def test_vehicles(runner):
+    res = _invoke(runner, ["vehicles", "--json"])
+    doc = json.loads(res.stdout)
+    assert [v["name"] for v in doc["vehicles"]] == vehicle_names()
+    assert {"peugeot406", "bmw320i", "dallara_av21"} <= set(vehicle_names())
+    assert "peugeot406" in _invoke(runner, ["vehicles"]).stdout
+
+
+# ------------------------------------------------------------------------------------------
+# corners (closed form on synthetic curvature)
+# ------------------------------------------------------------------------------------------
+def test_count_corners_on_known_curvature():
+    ds = 1.0
+    k = 1.0 / (0.5 * CORNER_RADIUS_M)  # well inside a corner
+    straight = np.zeros(200)
+    left = np.full(100, k)
+    right = np.full(100, -k)
+    # two corners, opposite ways, separated by a straight
+    assert count_corners(np.concatenate([straight, left, straight, right, straight]), ds,
+                         False) == 2
+    # an S-bend with no gap: two corners
+    assert count_corners(np.concatenate([straight, left, right, straight]), ds, False) == 2
+    # one corner whose radius wobbles above the threshold for less than the merge gap
+    gap = np.zeros(int(CORNER_MERGE_GAP_M / ds) - 5)
+    assert count_corners(np.concatenate([straight, left, gap, left, straight]), ds,
+                         False) == 1
+    # a kink shorter than the minimum length is no corner
+    kink = np.full(int(CORNER_MIN_LENGTH_M / ds) - 2, k)
+    assert count_corners(np.concatenate([straight, kink, straight]), ds, False) == 0
+    # a corner across the start of a closed path counts once, twice on an open path
+    wrap = np.concatenate([left[:50], straight, left[:50]])
+    assert count_corners(wrap, ds, True) == 1
+    assert count_corners(wrap, ds, False) == 2
+    # a circle
+    assert count_corners(np.full(500, k), ds, True) == 1
+    with pytest.raises(ValueError):
+        count_corners(np.zeros((2, 2)), ds, True)
+
+
+# ------------------------------------------------------------------------------------------
+# scenario new
+# ------------------------------------------------------------------------------------------
+def test_scenario_new_writes_a_valid_commented_template(runner, tmp_path):
+    f = tmp_path / "s.toml"
+    res = _invoke(runner, ["scenario", "new", str(f)])
+    assert res.exit_code == 0 and f.read_text() == SCENARIO_TEMPLATE
+    sc = load_scenario(f)
+    assert sc.controller == "mfc-natural" and sc.vehicle == "peugeot406"
+    assert sc.reference.track == "Norisring" and sc.plant == "10dof"
+    assert set(sc.sensors.channels) == {"x", "y", "psi", "vx", "vy", "r"}
+    assert SCENARIO_TEMPLATE.count("#") > 30  # commented
+    # refuses to overwrite; --force does
+    res = _invoke(runner, ["scenario", "new", str(f)])
+    assert res.exit_code == 2 and "--force" in res.stderr
+    f.write_text("x")
+    assert _invoke(runner, ["scenario", "new", str(f), "--force"]).exit_code == 0
+    assert f.read_text() == SCENARIO_TEMPLATE
+    res = _invoke(runner, ["scenario", "new", str(tmp_path / "nope" / "s.toml")])
+    assert res.exit_code == 2 and "does not exist" in res.stderr
+
+
+def test_template_commented_options_are_valid_when_uncommented():
+    """The commented [[road.patch]] and [[fault]] examples parse once uncommented."""
+    text = SCENARIO_TEMPLATE
+    for block in ("# [[road.patch]]", "# [[fault]]"):
+        i = text.index(block)
+        lines = text[i:].split("\n")
+        out = []
+        for ln in lines:
+            if not ln.startswith("# "):
+                break
+            out.append(ln[2:])
+        text = text[:i] + "\n".join(out) + text[i + len("\n".join(lines[:len(out)])):]
+    sc = scenario_from_toml(text)
+    assert sc.road.patches[0].mu == 0.5
+    assert sc.faults[0].kind == "nan_measurement"
+
+
+# ------------------------------------------------------------------------------------------
+# run: error paths (exit code 2)
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("args", "needles"),
+    [
+        (["--controller", "nope"], ["nope", *CONTROLLERS]),
+        (["--track", "Nurburgring"], ["unknown track", "Norisring", "Monza", "Spa"]),
+        (["--track", "missing/file.csv"], ["not found"]),
+        (["--vehicle", "trabant"], ["unknown vehicle", "peugeot406", "dallara_av21"]),
+        (["--recording", "nope"], ["unknown recording", "LVMS_23_01_04_B"]),
+        (["--track", "Monza", "--recording", "LVMS_23_01_04_B"], ["not both"]),
+        (["--cf-scale", "-1"], ["--cf-scale", "> 0"]),
+        (["--cr-scale", "nan"], ["--cr-scale"]),
+        (["--seed", "-1"], ["--seed"]),
+        (["--duration", "0"], ["--duration"]),
+        # the natural-output controller does not take the flatness model's stiffness scale
+        (["--controller", "mfc-natural", "--cf-scale", "0.3", *SHORT], ["cf_scale"]),
+        (["no-such-scenario"], ["unknown scenario", "paper", "recorded"]),
+        (["missing.toml"], ["not found", "missing.toml"]),
+    ],
+)
+def test_run_bad_input_exits_2_and_names_the_valid_choices(runner, args, needles):
+    res = _invoke(runner, ["run", *args])
+    assert res.exit_code == 2, res.output
+    for n in needles:
+        assert n in res.stderr, (n, res.stderr)
+    assert res.stdout == ""
+
+
+def test_run_malformed_toml_names_line_and_field(runner, tmp_path):
+    f = tmp_path / "bad.toml"
+    f.write_text('name = "x"\n\n[timing]\nplant_dt_s = 0.001\ncontrol_dt_s = -0.5\n')
+    res = _invoke(runner, ["run", str(f)])
+    assert res.exit_code == 2
+    assert "line 5" in res.stderr and "timing.control_dt_s" in res.stderr
+    f.write_text('name = "x"\n[reference]\ntrack = "Monza"\nlaps = 1.5\n')
+    res = _invoke(runner, ["run", str(f), "--json"])
+    assert res.exit_code == 2 and res.stdout == ""
+    assert "line 4" in res.stderr and "reference.laps" in res.stderr
+    f.write_text('name = "x"\ncontroller = \n')  # not TOML at all
+    res = _invoke(runner, ["run", str(f)])
+    assert res.exit_code == 2 and "line 2" in res.stderr
+
+
+# ------------------------------------------------------------------------------------------
+# run: results
+# ------------------------------------------------------------------------------------------
+def test_run_json_is_one_object_with_the_keys(runner):
+    res = _invoke(runner, ["run", "--controller", "mfc-natural", "--track", "norisring",
+                           "--no-noise", *SHORT, "--json"])
+    doc = json.loads(res.stdout)  # exactly one JSON document, nothing else on stdout
+    assert isinstance(doc, dict)
+    for k in JSON_KEYS:
+        assert k in doc, k
+    assert doc["controller"] == "mfc-natural" and doc["track"] == "norisring"
+    assert doc["noise"] is False
+    assert res.exit_code == (0 if doc["status"] == "completed" else 1)
+    assert doc["duration_s"] == pytest.approx(3.0, abs=0.02) or doc["status"] != "completed"
+
+
+def test_run_exit_code_1_when_the_run_does_not_complete(runner, tmp_path):
+    """The steering locked straight (a steer_limit fault of 0 rad) from t = 1 s: the car cannot
+    take Norisring's first corner and leaves the track, status left_track, exit code 1."""
+    f = tmp_path / "locked.toml"
+    f.write_text('controller = "mfc-natural"\nnoise = false\n[reference]\ntrack = "Norisring"\n'
+                 '[timing]\nduration_s = 30.0\n[[fault]]\nkind = "steer_limit"\n'
+                 't_start_s = 1.0\nduration_s = 60.0\nvalue = 0.0\n')
+    res = _invoke(runner, ["run", str(f), "--json"])
+    doc = json.loads(res.stdout)
+    assert doc["status"] in ("left_track", "non_finite")
+    assert res.exit_code == 1
+    assert doc["status_time_s"] is not None and doc["status_time_s"] < 30.0
+
+
+def test_run_out_writes_files_and_round_trips_the_scenario(runner, tmp_path):
+    out = tmp_path / "run1"
+    res = _invoke(runner, ["run", "--controller", "mfc-flat", "--seed", "3", *SHORT,
+                           "--out", str(out)])
+    assert res.exit_code in (0, 1)
+    sc = load_scenario(out / "scenario.toml")
+    assert sc.controller == "mfc-flat" and sc.seed == 3 and sc.timing.duration_s == 3.0
+    tr = Trajectory.from_parquet(out / "trajectory.parquet")
+    m = json.loads((out / "metrics.json").read_text())
+    # the metrics file is the metrics of the written trajectory
+    e = np.abs(tr["lateral_error"][tr.time >= tr.time[0] + sc.timing.startup_s])
+    assert m["lateral_error_max_m"] == pytest.approx(float(e.max()), rel=1e-12)
+    html = (out / "report.html").read_text()
+    assert 'data-controller="mfc-flat"' in html
+    for stem in ("fig4_paths", "fig5_errors", "fig6_inputs", "f_estimates", "track_map"):
+        assert (out / "figures" / f"{stem}.png").is_file()
+        assert (out / "figures" / f"{stem}.svg").is_file()
+
+
+def test_run_recording_reports_steer_rms_against_the_recording(runner, tmp_path):
+    out = tmp_path / "rec"
+    res = _invoke(runner, ["run", "--recording", "lvms_23_01_04_b", "--no-noise", *SHORT,
+                           "--json", "--out", str(out)])
+    doc = json.loads(res.stdout)
+    assert doc["track"] == "lvms_23_01_04_b" and doc["vehicle"] == "dallara_av21"
+    v = doc["steer_rms_vs_recorded_deg"]
+    assert v is not None and math.isfinite(v) and v >= 0.0
+    # independent check: RMS over t >= startup of (applied steer - recorded steer), the
+    # recording read at the reference time of each logged sample
+    from flatfree.scenarios import recorded_steer
+
+    sc = load_scenario(out / "scenario.toml")
+    tr = Trajectory.from_parquet(out / "trajectory.parquet")
+    clock = tr["t_ref"] if "t_ref" in tr else tr.time
+    keep = tr.time >= sc.timing.startup_s
+    d = tr["steer"][keep] - recorded_steer(clock, sc)[keep]
+    assert v == pytest.approx(math.degrees(math.sqrt(np.mean(d * d))), rel=1e-9)
+
+
+def test_named_scenario_and_option_override(runner):
+    res = _invoke(runner, ["run", "paper-noise-free", "--controller", "mfc-flat", *SHORT,
+                           "--json"])
+    doc = json.loads(res.stdout)
+    assert doc["scenario"] == "paper-noise-free" and doc["controller"] == "mfc-flat"
+    assert doc["noise"] is False and doc["vehicle"] == "peugeot406"
+
+
+# ------------------------------------------------------------------------------------------
+# demo
+# ------------------------------------------------------------------------------------------
+def test_demo_on_a_short_run_writes_report_and_figures(runner, tmp_path):
+    out = tmp_path / "tmp"
+    res = _invoke(runner, ["demo", "--out", str(out), "--duration", "3",
+                           "--recording-duration", "3", "--no-progress"])
+    html = (out / "report.html").read_text()
+    rows = [r for r in ("flatness", "mfc-flat", "mfc-natural")
+            if f'<tr class="run" data-controller="{r}">' in html]
+    assert rows == ["flatness", "mfc-flat", "mfc-natural"]
+    if res.exit_code == 2:  # a controller the closed loop lacks: said, and still reported
+        assert "not every paper run could be made" in res.stderr
+    else:
+        assert res.exit_code == 0, res.output
+    for ctrl in ("flatness", "mfc-flat", "mfc-natural"):
+        assert ctrl in res.stdout
+    figs = out / "figures"
+    for stem in ("fig3_cornering_stiffness", "fig4_paths", "fig5_errors", "f_estimates",
+                 "track_map", "fig6_inputs"):
+        assert (figs / f"{stem}.png").is_file(), stem
+        assert (figs / f"{stem}.svg").is_file(), stem
+    if res.exit_code == 0:
+        assert (figs / "fig2_mismatch.png").is_file()
+    n_png = len(list(figs.glob("*.png")))
+    assert html.count('src="data:image/png;base64,') == n_png
+    summary = json.loads((out / "metrics.json").read_text())
+    assert [r["label"] for r in summary["paper"]] == ["flatness", "mfc-flat", "mfc-natural"]
+    assert all("steer_rms_vs_recorded_deg" in r for r in summary["recorded"])
+
+
+def test_demo_bad_track_exits_2(runner, tmp_path):
+    res = _invoke(runner, ["demo", "--out", str(tmp_path / "o"), "--track", "Atlantis"])
+    assert res.exit_code == 2 and "Atlantis" in res.stderr and "Norisring" in res.stderr
+    assert not (tmp_path / "o" / "report.html").exists()
+
+
+def test_bench_quick_json(runner):
+    res = _invoke(runner, ["bench", "--quick", "--json"])
+    assert res.exit_code == 0
+    doc = json.loads(res.stdout)
+    for k in ("open_loop_10dof_real_time_factor", "open_loop_3dof_real_time_factor",
+              "controller_step_ns", "closed_loop_mfc-natural_real_time_factor"):
+        assert doc[k] is None or doc[k] > 0.0, k
+    assert doc["open_loop_10dof_real_time_factor"] > 0.0
+    assert doc["machine"]["cores"]
+
+
+def test_module_entry_point():
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "flatfree.cli", "--version"],
+                       capture_output=True, text=True, timeout=60, check=False)
+    assert r.returncode == 0 and "flatfree" in r.stdout
+
+
+def test_noise_flag_without_noisy_sensors_says_so(runner, tmp_path):
+    f = tmp_path / "quiet.toml"
+    f.write_text('name = "quiet"\n[timing]\nduration_s = 2.0\n')  # no [sensors.*] table
+    res = _invoke(runner, ["run", str(f), "--noise", "--json"])
+    assert "--noise has no effect" in res.stderr
+    assert json.loads(res.stdout)["noise"] is True
+
+
+def test_run_on_a_users_track_csv(runner, tmp_path):
+    """A circle of radius 100 m in the TUMFTM format (x_m, y_m, w_tr_right_m, w_tr_left_m)."""
+    th = np.linspace(0.0, 2.0 * np.pi, 301)[:-1]
+    f = tmp_path / "circle.csv"
+    f.write_text("# x_m,y_m,w_tr_right_m,w_tr_left_m\n" + "".join(
+        f"{100 * np.cos(t):.4f},{100 * np.sin(t):.4f},5.0,5.0\n" for t in th))
+    res = _invoke(runner, ["run", "--track", str(f), "--no-noise", *SHORT, "--json"])
+    doc = json.loads(res.stdout)
+    assert doc["track"] == str(f)
+    assert res.exit_code == (0 if doc["status"] == "completed" else 1)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("# x_m,y_m,w_tr_right_m,w_tr_left_m\n0,0,5,5\n1,0,5,5\n2,oops,5,5\n")
+    res = _invoke(runner, ["run", "--track", str(bad), *SHORT])
+    assert res.exit_code == 2 and "line" in res.stderr and "bad.csv" in res.stderr
