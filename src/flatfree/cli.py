@@ -187,9 +187,9 @@ def tracks(as_json: bool) -> None:
     if as_json:
         click.echo(json.dumps({"tracks": rows, "recordings": recs}))
         return
-    click.echo(f"{'track':12s} {'length':>9s} {'corners':>8s}  {'loop':4s}  license")
+    click.echo(f"{'track':12s} {'length km':>9s} {'corners':>8s}  {'loop':4s}  license")
     for r in rows:
-        click.echo(f"{r['name']:12s} {r['length_m'] / 1000:7.3f}km {r['corners']:8d}  "
+        click.echo(f"{r['name']:12s} {r['length_m'] / 1000:9.3f} {r['corners']:8d}  "
                    f"{'yes' if r['closed'] else 'no':4s}  {r['license']}")
     click.echo("")
     click.echo(f"{'recording':18s} {'duration':>9s} {'samples':>8s}  license")
