@@ -7,12 +7,19 @@ measured metric of the seeded run (2026-11-22, this code) times ``1 + rel_tol`` 
 headroom for floating-point differences across platforms/numba versions and for small changes of
 the plant (the tyre kernels are being vectorised). The runs are deterministic: a regression
 beyond the headroom is a real change of behaviour to review. Where the issue's targets are met,
-the target itself is asserted too (``target`` entries).
+the target itself is asserted too (``target`` entries). A case's ``settings`` override the
+scenario's controller settings (``{"path_correction": false}``: the paper's velocity-only design,
+which leaves the track).
+
+The outer path-following correction (controllers/vehicle.py) is checked on its own: its law
+gives the designed triple pole on the kinematic lateral model, and its y2-to-yaw-rate
+conversion is the steady state of the linear 3DoF model (sympy).
 """
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -28,13 +35,17 @@ _METRICS = ("lateral_error_max_m", "lateral_error_rms_m", "yaw_error_max_deg",
             "speed_error_rms_mps")
 
 
-_IDS = [f"{c['scenario']}@{c['track']}-{c.get('duration_s', 'lap')}" for c in _CASES]
+_IDS = [f"{c['scenario']}@{c['track']}-{c.get('duration_s', 'lap')}"
+        + ("-" + "-".join(f"{k}={v}" for k, v in c["settings"].items()) if "settings" in c
+           else "") for c in _CASES]
 
 
 @pytest.mark.parametrize("case", _CASES, ids=_IDS)
 def test_lap_within_reviewed_bounds(case):
     sc = named_scenario(case["scenario"], track=case["track"], seed=case.get("seed", 0),
                         duration_s=case.get("duration_s"))
+    if "settings" in case:
+        sc = sc.with_(controller_settings={**sc.controller_settings, **case["settings"]})
     tr = simulate(sc)
     m = compute_metrics(tr)
     assert m.status == case["status"], (m.status, tr.status_time)
@@ -109,3 +120,72 @@ def test_zero_dynamics_of_the_cog_lateral_output():
     zeta = (b.lf + b.lr) * b.cr * b.lr / (b.iz * 50.0) / (2.0 * wn)
     assert wn == pytest.approx(8.7, abs=0.05)
     assert zeta == pytest.approx(0.14, abs=0.005)
+
+
+def test_outer_correction_places_the_triple_pole_on_the_kinematic_model():
+    """``path_correction`` on e_y' = V chi, chi' = Delta r, I' = e_y / V (vehicle.py docstring).
+
+    The law is linear in (chi, e_y, I); its coefficients, read off the compiled function by
+    unit inputs (exact: the law is affine), must give the characteristic polynomial
+    (s + wn)^3 = s^3 + 3 wn s^2 + 3 wn^2 s + wn^3. Tolerance 1e-12 relative: float rounding
+    of a few products. The PD variant (zeta > 0) gives s^2 + 2 zeta wn s + wn^2 on (e_y, chi).
+    """
+    from flatfree.controllers.vehicle import path_correction
+
+    v, wn, zeta = 30.0, 2.0, 0.7
+    base = path_correction(v, 0.0, 0.0, 0.0, wn, 0.0, 0.0)
+    assert base == 0.0
+    d_chi = path_correction(v, 0.0, 0.0, 1e-3, wn, 0.0, 0.0) / 1e-3  # via e_psi
+    d_ey = path_correction(v, 0.0, 1e-3, 0.0, wn, 0.0, 0.0) / 1e-3
+    d_int = path_correction(v, 0.0, 0.0, 0.0, wn, 0.0, 1e-3) / 1e-3
+    # states (e_y, chi, I): e_y' = v chi, chi' = d_ey e_y + d_chi chi + d_int I, I' = e_y / v
+    a = np.array([[0.0, v, 0.0], [d_ey, d_chi, d_int], [1.0 / v, 0.0, 0.0]])
+    np.testing.assert_allclose(np.poly(a), [1.0, 3 * wn, 3 * wn**2, wn**3], rtol=1e-12)
+    pd_chi = path_correction(v, 0.0, 0.0, 1e-3, wn, zeta, 0.0) / 1e-3
+    pd_ey = path_correction(v, 0.0, 1e-3, 0.0, wn, zeta, 0.0) / 1e-3
+    a2 = np.array([[0.0, v], [pd_ey, pd_chi]])
+    np.testing.assert_allclose(np.poly(a2), [1.0, 2 * zeta * wn, wn**2], rtol=1e-12)
+    # the course error includes the sideslip: vy = v tan(b) with e_psi = -b gives chi = 0
+    assert path_correction(v, v * math.tan(0.05), 0.0, -0.05, wn, 0.0, 0.0) == pytest.approx(
+        0.0, abs=1e-15)
+
+
+def test_y2_per_r_is_the_linear_3dof_steady_state():
+    """d y2 / d r of :func:`y2_per_r` against a sympy steady state of the linear 3DoF model.
+
+    NOTES.md 3DoF model, small angles: m (vy' + vx r) = Fyf + Fyr, Iz r' = lf Fyf - lr Fyr,
+    Fyf = Cf (delta - (vy + lf r) / vx), Fyr = -Cr (vy - lr r) / vx. In steady cornering
+    (vy' = r' = 0) solve for vy and delta at a given r; y2 = lf m vy - Iz r must equal
+    y2_per_r * r. Symbolic identity, then the peugeot406 at 30 m/s to 1e-12 relative (float
+    evaluation of the same closed form).
+    """
+    import sympy as sp
+
+    from flatfree.controllers.vehicle import y2_per_r
+    from flatfree.models.bicycle3dof import Bicycle3DoFParams
+    from flatfree.vehicles import load_vehicle
+
+    m, iz, lf, lr, cf, cr, vx = sp.symbols("m I_z l_f l_r C_f C_r v_x", positive=True)
+    vy, r, delta = sp.symbols("v_y r delta")
+    fyf = cf * (delta - (vy + lf * r) / vx)
+    fyr = -cr * (vy - lr * r) / vx
+    sol = sp.solve([fyf + fyr - m * vx * r, lf * fyf - lr * fyr], [vy, delta], dict=True)[0]
+    ratio = sp.simplify((lf * m * sol[vy] - iz * r) / r)
+    expected = lf * m * lr - iz - (lf * m * vx) ** 2 / (cr * (lf + lr))
+    assert sp.simplify(ratio - expected) == 0
+    b = Bicycle3DoFParams.from_vehicle(load_vehicle("peugeot406"))
+    num = float(ratio.subs({m: b.m, iz: b.iz, lf: b.lf, lr: b.lr, cr: b.cr, vx: 30.0}))
+    assert float(y2_per_r(b, 30.0)) == pytest.approx(num, rel=1e-12)
+
+
+def test_path_correction_settings_are_validated():
+    from flatfree.controllers.vehicle import FlatnessSettings, MfcFlatSettings
+
+    for cls in (FlatnessSettings, MfcFlatSettings):
+        assert cls().path_correction is True
+        with pytest.raises(ValueError, match="path_correction"):
+            cls(path_correction=1)
+        with pytest.raises(ValueError, match="outer_wn"):
+            cls(outer_wn=0.0)
+        with pytest.raises(ValueError, match="outer_integral"):
+            cls(outer_integral="yes")

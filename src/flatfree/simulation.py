@@ -38,6 +38,7 @@ per control step).
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import math
 import time
@@ -60,6 +61,7 @@ from flatfree.controllers.vehicle import (
     build_mfc,
     settings_from_mapping,
     vehicle_step,
+    y2_per_r,
 )
 from flatfree.metrics import wrap_angle
 from flatfree.models.bicycle3dof import Bicycle3DoFParams, rk4_step_into
@@ -408,7 +410,7 @@ def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepare
                              f"{', '.join(SCHEDULES)}")
         z = np.zeros(1)
         ctrl = VehicleControllerArrays(int(KIND.PYTHON), z, z.copy(), z.copy(), z.copy(),
-                                       np.zeros(7), z.copy(), z.copy(), z.copy())
+                                       np.zeros(14), z.copy(), z.copy(), z.copy())
     elif sc.controller == "flatness":
         ctrl = build_flatness(settings, dt=sc.timing.control_dt_s, model=bic)
         if settings.cf_scale != 1.0 or settings.cr_scale != 1.0:
@@ -449,6 +451,17 @@ def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepare
     cref[:, 1 + CREF.EY_DOT] = ref["e_y_ref_dot"]
     cref[:, 1 + CREF.EY_DDOT] = ref["e_y_ref_ddot"]
     cref[:, 1 + CREF.KAPPA] = ref["kappa"]
+    # d y2 / d r of the controller's design model (path correction; vehicle.py), at the
+    # reference speed: the scaled model for a mismatched flatness controller
+    design = bic
+    if sc.controller == "flatness" and python_controller is None:
+        design = dataclasses.replace(bic, cf=settings.cf_scale * bic.cf,
+                                     cr=settings.cr_scale * bic.cr)
+    cref[:, 1 + CREF.Y2_PER_R] = y2_per_r(design, ref["vx"])
+    # -beta_ref' of the controller's reference (vx_ref, vy_ref): a car whose CoG follows the
+    # path turns at r = V kappa - beta' (course = psi + beta), the reference has r = Vx kappa
+    beta_c = np.arctan2(lat_c.vy, np.maximum(ref["vx"], 1e-6))
+    cref[:, 1 + CREF.R_KIN] = -np.gradient(beta_c, ref["t"]) if len(beta_c) > 1 else 0.0
     return Prepared(sc, vehicle, ref, beta, ctrl, act, cref, x0, n_steps, schedule == "path")
 
 
@@ -462,7 +475,8 @@ class PythonController(Protocol):
       (measured x, y, psi, vx, vy, r, then the lateral deviation and heading error of the
       measured pose from the path; NaN where a sensor fault blanks a channel);
     - ``reference``: a float array in the layout :class:`flatfree.controllers.vehicle.CREF`
-      (speed, acceleration, flat-output and lateral-deviation references, path curvature),
+      (speed, acceleration, flat-output and lateral-deviation references, path curvature,
+      the path correction's d y2 / d r and -beta_ref'),
       read at the scheduled reference time (``schedule``);
 
     - ``applied``: ``[torque, steer]`` the actuators applied over the previous plant step (NaN
