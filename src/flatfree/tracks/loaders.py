@@ -72,6 +72,16 @@ def _points_from_raw(raw: _io.RawData, name: str) -> TrackPoints:
     return TrackPoints(name, raw.source, x, y, wl, wr, True if closure else None)
 
 
+#: Smoothing cut-off wavelength for the LVMS centerline built from the bound files [m]. The
+#: bound files are generated (PROVENANCE.md) and their midline bends by ~0.3 m over ~40 m at the
+#: loop closure, which the default 20 m cut-off turns into a curvature swing of +-0.007 1/m on
+#: the straight (an S-bend the car cannot follow). The oval's turns have radii >= 150 m (1st/99th
+#: percentile of the recorded path's curvature: -0.0009 / +0.0065 1/m, PROVENANCE.md), which a
+#: 60 m cut-off passes unchanged (gain 1 - (60 / (2 pi 150))^8 ~ 1); the seam swing drops to
+#: 0.0016 1/m.
+LVMS_SMOOTHING_LENGTH = 60.0
+
+
 def lvms_centerline() -> TrackPoints:
     """Centerline of the LVMS oval from the bundled bound files [rec].
 
@@ -149,7 +159,7 @@ def load_track(
     raceline: bool = False,
     closed: bool | None = None,
     ds: float = DEFAULT_DS,
-    smoothing_length: float = DEFAULT_SMOOTHING_LENGTH,
+    smoothing_length: float | None = None,
 ) -> Track:
     """Load a bundled track by name, or a user's track file, as a resampled :class:`Track`.
 
@@ -166,8 +176,12 @@ def load_track(
         Load the TUMFTM minimum-curvature race line (no widths) instead of the centerline.
     closed : bool, optional
         Override the loop detection (see :meth:`Track.from_points`).
-    ds, smoothing_length : float
-        Resampling step and smoothing cut-off wavelength [m] (see :meth:`Track.from_points`).
+    ds : float
+        Resampling step [m] (see :meth:`Track.from_points`).
+    smoothing_length : float, optional
+        Smoothing cut-off wavelength [m] (see :meth:`Track.from_points`); default
+        ``DEFAULT_SMOOTHING_LENGTH`` (20 m), and ``LVMS_SMOOTHING_LENGTH`` (60 m) for the LVMS
+        centerline built from the generated bound files.
 
     Returns
     -------
@@ -179,6 +193,9 @@ def load_track(
     contributors" (data/tracks/PROVENANCE.md). Licenses: LGPL-3.0 (tracks), GPL-3.0 (recording).
     """
     pts = read_track_points(name_or_path, raceline=raceline)
+    if smoothing_length is None:
+        smoothing_length = (LVMS_SMOOTHING_LENGTH if pts.name == _io.LVMS_NAME
+                            else DEFAULT_SMOOTHING_LENGTH)
     c = closed if closed is not None else pts.closed
     name = f"{pts.name} raceline" if raceline else pts.name
     return Track.from_points(pts.x, pts.y, w_left=pts.w_left, w_right=pts.w_right, closed=c,
