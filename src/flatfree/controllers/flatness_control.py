@@ -134,6 +134,7 @@ from numba import float64, types
 from scipy.interpolate import CubicSpline, make_smoothing_spline
 
 from flatfree._validate import finite, positive
+from flatfree.controllers._shell import CompiledController
 from flatfree.controllers.flatness import (
     MAP_MARGIN,
     SAFE_MARGIN,
@@ -1013,7 +1014,7 @@ class FlatnessControlStatus:
     delta: float
 
 
-class FlatnessController:
+class FlatnessController(CompiledController):
     """Python shell over :func:`flatness_step`, following a :class:`FlatReference`.
 
     Parameters
@@ -1044,36 +1045,17 @@ class FlatnessController:
     [paper] Section 2.3; NOTES.md "Flat outputs".
     """
 
-    __slots__ = ("_params", "_reference", "_p", "_s")
+    __slots__ = ("_reference",)
 
     def __init__(self, params: FlatnessControlParams, reference: FlatReference) -> None:
-        if not isinstance(params, FlatnessControlParams):
-            raise ValueError(f"params = {params!r}: expected FlatnessControlParams")
+        super().__init__(params, FlatnessControlParams, make_state)
         check_flat_reference(params, reference)
-        self._params = params
         self._reference = reference
-        self._p = params.to_array()
-        self._s = make_state(self._p)
-
-    @property
-    def params(self) -> FlatnessControlParams:
-        """The frozen parameters."""
-        return self._params
 
     @property
     def reference(self) -> FlatReference:
         """The followed reference."""
         return self._reference
-
-    @property
-    def params_array(self) -> np.ndarray:
-        """The compiled kernel's parameter array (read it, do not modify it)."""
-        return self._p
-
-    @property
-    def state_array(self) -> np.ndarray:
-        """The compiled kernel's state array (mutated by every step)."""
-        return self._s
 
     def reset(self) -> None:
         """Back to the state right after construction."""

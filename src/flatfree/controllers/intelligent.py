@@ -123,6 +123,7 @@ import numba
 import numpy as np
 
 from flatfree._validate import finite, positive
+from flatfree.controllers._shell import CompiledController
 from flatfree.estimators import derivative_weights, f_estimator_weights
 
 __all__ = [
@@ -737,7 +738,7 @@ class IntelligentStatus:
     u: float
 
 
-class IntelligentController:
+class IntelligentController(CompiledController):
     """Python shell over :func:`intelligent_step` (one SISO loop; use one instance per loop).
 
     Parameters
@@ -754,29 +755,10 @@ class IntelligentController:
     .. [P] paper Section 3.2; NOTES.md "Intelligent controllers".
     """
 
-    __slots__ = ("_params", "_p", "_s")
+    __slots__ = ()
 
     def __init__(self, params: IntelligentParams) -> None:
-        if not isinstance(params, IntelligentParams):
-            raise ValueError(f"params = {params!r}: expected IntelligentParams")
-        self._params = params
-        self._p = params.to_array()
-        self._s = make_state(self._p)
-
-    @property
-    def params(self) -> IntelligentParams:
-        """The frozen parameters."""
-        return self._params
-
-    @property
-    def params_array(self) -> np.ndarray:
-        """The compiled kernel's parameter array (read it, do not modify it)."""
-        return self._p
-
-    @property
-    def state_array(self) -> np.ndarray:
-        """The compiled kernel's state array (mutated by every step)."""
-        return self._s
+        super().__init__(params, IntelligentParams, make_state)
 
     def reset(self) -> None:
         """Back to the state right after construction."""
