@@ -7,7 +7,20 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 
-.PHONY: demo test bench clean-cache clean
+.PHONY: demo test bench clean-cache clean numba-cache
+
+# numba's on-disk cache does not notice when a compiled function that another module imports
+# has changed (DESIGN.md "Speed by design"): a stale cache then runs old code silently. The make
+# targets therefore keep one cache folder per state of the sources (a hash of src/**/*.py) and
+# drop the folders of older states. (A plain `pytest` or `python` run uses numba's default
+# cache next to the sources: `make clean-cache` clears both.)
+SRC_HASH := $(shell find src -name '*.py' -type f | LC_ALL=C sort | xargs cat | sha1sum | cut -c1-12)
+NUMBA_CACHE_ROOT := $(CURDIR)/.numba-cache
+export NUMBA_CACHE_DIR := $(NUMBA_CACHE_ROOT)/$(SRC_HASH)
+
+numba-cache:
+	@mkdir -p $(NUMBA_CACHE_DIR)
+	@find $(NUMBA_CACHE_ROOT) -mindepth 1 -maxdepth 1 ! -name $(SRC_HASH) -exec rm -rf {} +
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -25,22 +38,22 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 	$(PIP) install --quiet -e .
 	touch $@
 
-demo: $(VENV)/.installed
+demo: $(VENV)/.installed numba-cache
 	$(VENV)/bin/flatfree demo
 
 # The HTML report's browser test needs headless Chromium (Debian packages): installed here when
 # possible (root + apt-get), otherwise the test skips with a clear message.
-test: $(VENV)/.installed-test
+test: $(VENV)/.installed-test numba-cache
 	bash tools/install_browser.sh
 	$(PY) -m pytest -q
 
-bench: $(VENV)/.installed-bench
+bench: $(VENV)/.installed-bench numba-cache
 	$(PY) benchmarks/run_all.py
 
-# numba's on-disk cache does not notice when an imported compiled function changed:
-# clear it whenever results surprise you (DESIGN.md, "Speed by design").
+# Clear every numba cache (the per-source-state folders and the default ones next to the sources).
 clean-cache:
 	find src -name '__pycache__' -type d -prune -exec rm -rf {} +
+	rm -rf $(NUMBA_CACHE_ROOT)
 
 clean: clean-cache
 	rm -rf $(VENV) build *.egg-info src/*.egg-info
