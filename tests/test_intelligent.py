@@ -262,6 +262,33 @@ def test_estimator_fed_with_applied_input_under_saturation_and_rate_limit():
     assert n_sat > 50 and n_rate > 0  # the limits did bind
 
 
+def test_set_applied_feeds_the_estimator_with_an_input_changed_after_the_controller():
+    """An actuator clips the output to [-0.3, 0.3] without the controller knowing: told with
+    intelligent_set_applied, F_hat stays exactly F0 (y' = F0 + alpha u_applied); not told, it is
+    off by alpha (u_cmd - u_applied), which is O(1) here: the test can fail.
+    """
+    from flatfree.controllers.intelligent import intelligent_set_applied
+
+    dt, alpha, f0 = 0.01, 1.0, 2.0
+    errs = {}
+    for told in (True, False):
+        c = IP(alpha=alpha, kp=8.0, dt=dt, window=5)
+        y, worst, clipped = 0.0, 0.0, 0
+        for k in range(200):
+            u = c.step(y, 3.0 * math.sin(3.0 * k * dt), 9.0 * math.cos(3.0 * k * dt))
+            if c.status.window_full and k > 10:
+                worst = max(worst, abs(c.status.f_hat - f0))
+            ua = min(max(u, -0.3), 0.3)
+            clipped += ua != u
+            if told:
+                intelligent_set_applied(c.params_array, c.state_array, ua)
+            y += (f0 + alpha * ua) * dt
+        errs[told] = worst
+        assert clipped > 50
+    assert errs[True] < 1e-9
+    assert errs[False] > 0.1
+
+
 def test_rate_limit_and_saturation_are_respected():
     dt, rate = 0.01, 5.0
     c = IP(alpha=1.0, kp=50.0, dt=dt, window=3, rate_max=rate, u_min=-2.0, u_max=2.0, u0=0.3)

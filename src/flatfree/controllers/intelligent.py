@@ -140,6 +140,7 @@ __all__ = [
     "error_dynamics_gains",
     "intelligent_step",
     "intelligent_reset",
+    "intelligent_set_applied",
     "make_state",
     "model_derivative_weights",
     "ESTIMATOR_CODES",
@@ -230,6 +231,26 @@ def _limit(p: np.ndarray, u_cmd: float, u_prev: float) -> tuple[float, float, fl
         u = p[_UMIN]
         sat = -1.0
     return u, sat, rl
+
+
+@numba.njit("void(float64[::1], float64[::1], float64)", cache=True)
+def intelligent_set_applied(p: np.ndarray, s: np.ndarray, u: float) -> None:
+    """Record that ``u`` (not the controller's own output) was applied over the last sample.
+
+    The F estimator (and the model derivative) must see the input actually applied. When
+    something after the controller changes it (an actuator's lag or dead time, a limit the
+    controller does not know, a term added to its output such as a damper), call this with the
+    applied value before the next :func:`intelligent_step`. Nothing happens before the first
+    step or for a non-finite ``u``.
+    """
+    if not math.isfinite(u) or s[_K] == 0.0:
+        return
+    n = int(p[_L])
+    head = int(s[_HEAD])
+    ub0 = _HS + 2 * n  # the u ring buffer (IST docstring), newest sample at HEAD and HEAD + L
+    s[ub0 + head] = u
+    s[ub0 + head + n] = u
+    s[_U] = u
 
 
 @numba.njit("void(float64[::1], float64[::1])", cache=True)

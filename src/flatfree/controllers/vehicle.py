@@ -88,9 +88,9 @@ from flatfree.controllers.flatness_control import (
 )
 from flatfree.controllers.flatness_control import make_state as flat_make_state
 from flatfree.controllers.intelligent import (
-    IPAR,
     IST,
     IntelligentParams,
+    intelligent_set_applied,
     intelligent_step,
     make_state,
 )
@@ -638,31 +638,6 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                                    _denoiser(getattr(settings, "denoise_yaw", 0)))
 
 
-_IST_U = int(IST.U)
-_IST_K = int(IST.K)
-_IST_HEAD = int(IST.HEAD)
-_IST_N = len(IST)
-_IPAR_L = int(IPAR.L)
-
-
-@njit(cache=True)
-def _record_applied(p, s, u):
-    """Replace the last output stored in an intelligent controller's state by the applied ``u``.
-
-    Uses the state layout documented in :class:`~flatfree.controllers.intelligent.IST`: after
-    the header, the y ring buffer (2 L) then the u ring buffer (2 L), the newest sample at
-    ``HEAD`` and ``HEAD + L``. Nothing is done before the first step or for a non-finite ``u``.
-    """
-    if not math.isfinite(u) or s[_IST_K] == 0.0:
-        return
-    L = int(p[_IPAR_L])
-    head = int(s[_IST_HEAD])
-    ub0 = _IST_N + 2 * L
-    s[ub0 + head] = u
-    s[ub0 + head + L] = u
-    s[_IST_U] = u
-
-
 @njit(cache=True)
 def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, meas, cref,
                  tw_applied, delta_applied):
@@ -692,8 +667,8 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         return flatness_step(p_lon, s_lon, meas[3], meas[4], meas[5], cref[0], cref[1],
                              y2r, cref[3], cref[4], coef[2], tw_applied, delta_applied)
     if coef[5] != 0.0:  # the estimators see what the actuators applied (intelligent.py)
-        _record_applied(p_lon, s_lon, tw_applied)
-        _record_applied(p_lat, s_lat, delta_applied)
+        intelligent_set_applied(p_lon, s_lon, tw_applied)
+        intelligent_set_applied(p_lat, s_lat, delta_applied)
     vx = meas[3]
     if coef[0] != 0.0 and math.isfinite(vx):
         vx = fir_update(f_lon, vx)  # NOTES.md denoiser (2T - 3d)
