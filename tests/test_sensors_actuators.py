@@ -117,3 +117,34 @@ def test_from_vehicle_takes_the_preset_limits():
     assert a.max_steer == v.max_steer and a.max_power == v.max_power and a.steer_delay == 0.04
     with pytest.raises(ValueError, match="torque_tau = -0.1 s"):
         ActuatorParams.from_vehicle(v, torque_tau=-0.1)
+
+
+def test_gauss_markov_drift_has_its_std_and_correlation_time():
+    """Stationary std markov_std and autocorrelation exp(-lag / tau) (first-order Gauss-Markov).
+
+    400 000 samples at 1 ms with tau = 0.2 s: about 1000 correlation times, so the sample std
+    has a relative spread ~ sqrt(1 / 1000) ~ 3 %: checked within 10 %; the lag-tau
+    autocorrelation within 0.05 of exp(-1).
+    """
+    n, dt, tau = 400_000, 1e-3, 0.2
+    suite = SensorSuite({"y": SensorChannel(markov_std=0.01, markov_tau_s=tau)})
+    out = _run_sensors(suite, np.zeros((n, 1)), ("y",), dt=dt, seed=3)[:, 0]
+    assert np.std(out) == pytest.approx(0.01, rel=0.1)
+    lag = int(tau / dt)
+    rho = np.corrcoef(out[:-lag], out[lag:])[0, 1]
+    assert rho == pytest.approx(math.exp(-1.0), abs=0.05)
+    # white noise alone is unchanged by the drift option's existence (same seed, same draws)
+    white = SensorSuite({"y": SensorChannel(noise_std=0.05)})
+    both = SensorSuite({"y": SensorChannel(noise_std=0.05, markov_std=0.01, markov_tau_s=tau)})
+    w = _run_sensors(white, np.zeros((100, 1)), ("y",), seed=3)[:, 0]
+    b = _run_sensors(both, np.zeros((100, 1)), ("y",), seed=3)[:, 0]
+    assert not np.array_equal(w, b)
+    assert np.std(b - w) < 0.02  # the difference is the slow drift, ~0.01
+    assert SensorSuite({"y": both.channels["y"]}).noise_free().channels["y"].markov_std == 0.0
+
+
+def test_drift_needs_its_correlation_time():
+    with pytest.raises(ValueError, match="markov_tau_s"):
+        SensorChannel(markov_std=0.01)
+    with pytest.raises(ValueError, match="markov_tau_s = 0.0 s"):
+        SensorChannel(markov_std=0.01, markov_tau_s=0.0)

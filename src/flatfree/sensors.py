@@ -13,6 +13,11 @@ names to channels. The simulation evaluates them at the controller's rate throug
 - **noise**: additive Gaussian, standard deviation ``noise_std``, drawn in advance for the whole
   run from ``numpy.random.default_rng(seed)``: the same seed gives bit-identical runs, different
   seeds different noise. Noise is drawn once per sample (held between samples).
+- **drift** (optional): a first-order Gauss-Markov error of stationary standard deviation
+  ``markov_std`` and correlation time ``markov_tau_s``, ``b[k+1] = phi b[k] + markov_std
+  sqrt(1 - phi^2) w[k]``, ``phi = exp(-dt / markov_tau_s)``, started from its stationary
+  distribution: the slow error of, e.g., a GNSS/INS position (a datasheet's "1 cm" accuracy is
+  mostly such a slow error, the sample-to-sample jitter being much smaller).
 - **bias**: a constant offset added to every sample.
 
 Units of ``noise_std`` and ``bias`` are those of the channel's signal (SI).
@@ -50,12 +55,17 @@ class SensorChannel:
         Sample rate [Hz]; ``None`` samples at every controller step.
     delay_s
         Transport delay [s] (>= 0), rounded to whole controller periods.
+    markov_std, markov_tau_s
+        Stationary standard deviation (signal's unit) and correlation time [s] of a first-order
+        Gauss-Markov drift (module docstring); 0 / None: no drift.
     """
 
     noise_std: float = 0.0
     bias: float = 0.0
     rate_hz: float | None = None
     delay_s: float = 0.0
+    markov_std: float = 0.0
+    markov_tau_s: float | None = None
 
     def __post_init__(self) -> None:
         nonnegative("noise_std", self.noise_std)
@@ -63,6 +73,14 @@ class SensorChannel:
         if self.rate_hz is not None:
             positive("rate_hz", self.rate_hz, "Hz")
         nonnegative("delay_s", self.delay_s, "s")
+        nonnegative("markov_std", self.markov_std)
+        if self.markov_tau_s is not None:
+            positive("markov_tau_s", self.markov_tau_s, "s")
+        elif self.markov_std > 0.0:
+            raise ValueError(
+                f"markov_std = {self.markov_std!r}: a drift needs its correlation time "
+                "markov_tau_s [s]"
+            )
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,8 +88,8 @@ class CompiledSensors:
     """Arrays for :func:`sense_step`: parameters, pre-drawn noise and the state to mutate."""
 
     names: tuple[str, ...]
-    table: np.ndarray  # (n_channels, 4): noise_std, bias, period_steps, delay_steps
-    noise: np.ndarray  # (n_steps, n_channels) standard normal draws, scaled in sense_step
+    table: np.ndarray  # (n_channels, 4): 1 (noise scale), bias, period_steps, delay_steps
+    noise: np.ndarray  # (n_steps, n_channels) error sequence in the signals' units
     history: np.ndarray  # (n_channels, max_delay + 1) ring buffer of true values
     held: np.ndarray  # (n_channels,) last measured value
 
@@ -118,20 +136,34 @@ class SensorSuite:
             )
         n = len(names)
         table = np.zeros((n, 4))
-        for i, name in enumerate(names):
-            ch = self.channels.get(name, SensorChannel())
-            table[i, _NOISE] = ch.noise_std
+        chans = [self.channels.get(name, SensorChannel()) for name in names]
+        for i, ch in enumerate(chans):
+            table[i, _NOISE] = 1.0
             table[i, _BIAS] = ch.bias
             table[i, _PERIOD] = (
                 1 if ch.rate_hz is None else max(1, round(1.0 / (ch.rate_hz * dt_control)))
             )
             table[i, _DELAY] = round(ch.delay_s / dt_control)
         rng = np.random.default_rng(seed)
-        noise = rng.standard_normal((int(n_steps), n))
+        white = rng.standard_normal((int(n_steps), n))
+        noise = white * np.array([ch.noise_std for ch in chans])
+        for i, ch in enumerate(chans):
+            if ch.markov_std > 0.0:
+                noise[:, i] += _gauss_markov(rng, int(n_steps), ch.markov_std,
+                                             math.exp(-dt_control / ch.markov_tau_s))
         max_delay = int(table[:, _DELAY].max()) if n else 0
         history = np.full((n, max_delay + 1), np.nan)
         held = np.full(n, np.nan)
         return CompiledSensors(tuple(names), table, noise, history, held)
+
+
+def _gauss_markov(rng: np.random.Generator, n: int, std: float, phi: float) -> np.ndarray:
+    """A stationary first-order Gauss-Markov sequence (module docstring), via lfilter."""
+    from scipy.signal import lfilter
+
+    w = rng.standard_normal(n) * (std * math.sqrt(1.0 - phi * phi))
+    w[0] = rng.standard_normal() * std  # b[0] from the stationary distribution
+    return lfilter([1.0], [1.0, -phi], w)
 
 
 @njit(cache=True)
