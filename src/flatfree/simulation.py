@@ -29,6 +29,13 @@ and ``yaw_error = psi - (psi_ref(s) - beta_ref(s))`` with the 3DoF model's refer
 heading that keeps the CoG velocity tangent to the path is ``psi_ref - beta_ref``; 0 for a
 recorded reference, whose yaw is the recorded one).
 
+The car starts on the reference at ``s = 0`` (position, heading, sideslip angle, path
+curvature), at the speed it can have there: on a closed track the power-limited speed of a
+flying lap (:func:`flying_lap_speed`), at most the reference's. The speed profiles know the
+friction ellipse, not the engine; starting at an unreachable reference speed put the
+peugeot406 at 49.1 m/s (it arrives at 44.8 m/s) into a 6 m/s^2 braking through the LVMS
+seam's S-bend, where the braking car is yaw-unstable: it spun within 4.4 s.
+
 The reference tables are sampled every :data:`REFERENCE_DT_S` and interpolated linearly.
 A user's own Python controller (:class:`PythonController`, ``simulate(sc, controller=obj)``)
 runs on the same compiled engine: the loop pauses at every control step, hands the
@@ -81,9 +88,11 @@ from flatfree.tracks import (
 )
 from flatfree.sensors import sense_step
 from flatfree.trajectory import Status, Trajectory
+from flatfree.units import G
 from flatfree.vehicles import VehicleParams, load_vehicle
 
 __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "Prepared",
+           "flying_lap_speed",
            "PythonController", "prepare", "simulate"]
 
 #: Half-width of the road used for the left-the-track check where the track gives no width [m].
@@ -348,6 +357,80 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
 
 
 
+def flying_lap_speed(s: np.ndarray, v_ref: np.ndarray, vehicle: VehicleParams, *,
+                     closed: bool, max_laps: int = 10) -> np.ndarray:
+    """Speed a car following ``v_ref`` can actually have along the path (power-limited).
+
+    The speed profiles of :mod:`flatfree.tracks` know the friction ellipse, not the engine: on
+    a fast stretch the reference may ask for more speed than the car can reach. The car holds
+    ``v <= v_ref`` (it brakes where the reference brakes) and below it accelerates at most with
+    the drive force ``min(max_drive_torque / R_e, max_power / v)`` (the actuators' power cap)
+    against the drag ``1/2 rho C_d A v^2`` and the rolling resistance ``f_r m g`` ([VM] 1.9,
+    the 10DoF plant's resistances):
+
+        d(v^2)/ds = 2 a(v),   a(v) = (F_drive(v) - 1/2 rho C_d A v^2 - f_r m g) / m,
+
+    integrated with Heun's method in ``v^2`` between the given points, then capped by
+    ``v_ref``. On a closed path the integration wraps around the lap until the speed at
+    ``s[0]`` repeats (the car arrives at the line on a flying lap); an open path starts from
+    ``v_ref[0]``.
+
+    Parameters
+    ----------
+    s : ndarray
+        Arc length, non-decreasing [m]; a closed path's last point is the lap's end (= ``s[0]``
+        plus one lap, where ``v_ref[-1]`` equals ``v_ref[0]``).
+    v_ref : ndarray
+        Reference speed at ``s`` [m/s].
+    vehicle : VehicleParams
+        Mass, wheel radius, drive torque and power limits, drag area, air density, rolling
+        resistance.
+    closed : bool
+        Wrap the integration around the lap.
+    max_laps : int
+        Laps integrated at most on a closed path (the speed at ``s[0]`` only decreases from lap
+        to lap and is fixed once the car meets ``v_ref`` anywhere on the lap).
+
+    Returns
+    -------
+    ndarray
+        The reachable speed at ``s`` [m/s], ``<= v_ref``.
+
+    References
+    ----------
+    .. [VM] shared/reference/VEHICLE_MODEL.md 1.9 (drag, rolling resistance); the power cap:
+       :class:`flatfree.actuators.ActuatorParams`.
+    """
+    s = np.asarray(s, dtype=float)
+    v_ref = np.asarray(v_ref, dtype=float)
+    m = vehicle.mass
+    f_drive_max = vehicle.max_drive_torque / vehicle.wheel_radius  # actuator torque limit
+    k_drag = 0.5 * vehicle.air_density * vehicle.drag_area  # [VM] 1.9: F_D = 1/2 rho CdA v^2
+    f_roll = vehicle.rolling_resistance * m * G  # [VM] 1.9 rolling resistance
+
+    def acc(v: float) -> float:
+        f_drive = min(f_drive_max, vehicle.max_power / max(v, 1e-3))  # power cap
+        return (f_drive - k_drag * v * v - f_roll) / m
+
+    v = np.empty_like(v_ref)
+    v0 = float(v_ref[0])
+    for _ in range(max_laps if closed else 1):
+        v[0] = v0
+        for i in range(len(s) - 1):
+            ds = s[i + 1] - s[i]
+            w = v[i] * v[i]
+            w1 = w + 2.0 * ds * acc(v[i])  # Heun predictor in v^2
+            w1 = w + ds * (acc(v[i]) + acc(math.sqrt(max(w1, 0.0))))
+            v[i + 1] = min(float(v_ref[i + 1]), math.sqrt(max(w1, 0.0)))
+        if not closed:
+            break
+        v0_next = min(float(v_ref[0]), float(v[-1]))  # s[-1] is s[0] one lap on
+        if abs(v0_next - v0) <= 1e-9 * max(v0, 1.0):
+            break
+        v0 = v0_next
+    return v
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class Prepared:
     """A scenario turned into the arrays of the compiled loop (inspectable; one run each)."""
@@ -429,16 +512,25 @@ def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepare
     else:
         duration = ref.duration
     n_steps = int(round(duration / sc.timing.plant_dt_s))
-    # start on the reference, with its speed, sideslip and yaw rate
+    # start on the reference, with its sideslip and path curvature, at the speed the car can
+    # have there: on a closed track the car arrives at the line on a flying lap, and the
+    # friction-only profile may ask for more than the engine gives (LVMS: 49.1 m/s at s = 0,
+    # where the peugeot406 arrives at 44.8 m/s, at the start of a 6 m/s^2 braking;
+    # flying_lap_speed). A recording's speed was driven: kept.
     row = ref.table[0]
-    vx0 = float(row[RS.VX])
-    vy0 = 0.0 if recorded else float(lat.vy[0])
+    vx_ref0 = float(row[RS.VX])
+    vx0 = vx_ref0
+    if not recorded and ref.path.closed:
+        vx0 = float(flying_lap_speed(ref["s_path"], ref["vx"], vehicle, closed=True)[0])
+    scale = vx0 / vx_ref0 if vx_ref0 > 0.0 else 1.0
+    vy0 = 0.0 if recorded else scale * float(lat.vy[0])  # same sideslip angle
+    r0 = scale * float(row[RS.R])  # Vx kappa at the car's speed
     psi0 = float(row[RS.PSI]) - float(beta[0])  # heading = course - sideslip (ISO 8855)
     if sc.plant == "10dof":
-        x0 = TenDoF(vehicle).initial_state(vx0, vy=vy0, r=float(row[RS.R]),
-                                           x=float(row[RS.X]), y=float(row[RS.Y]), psi=psi0)
+        x0 = TenDoF(vehicle).initial_state(vx0, vy=vy0, r=r0, x=float(row[RS.X]),
+                                           y=float(row[RS.Y]), psi=psi0)
     else:
-        x0 = np.array([row[RS.X], row[RS.Y], psi0, vx0, vy0, row[RS.R]], dtype=float)
+        x0 = np.array([row[RS.X], row[RS.Y], psi0, vx0, vy0, r0], dtype=float)
     # controller references: t, then the CREF columns
     cref = np.empty((ref.table.shape[0], 1 + len(CREF)))
     cref[:, 0] = ref["t"]
