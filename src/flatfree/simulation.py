@@ -75,6 +75,7 @@ from flatfree.models.bicycle3dof import Bicycle3DoFParams, rk4_step_into
 from flatfree.models.tendof import TenDoF, TenDoFState, rk4_step_kernel
 from flatfree.scenario import Scenario
 from flatfree.tracks import (
+    GC,
     RS,
     Reference,
     SpeedLimits,
@@ -109,6 +110,11 @@ SENSOR_CHANNELS = ("x", "y", "psi", "vx", "vy", "r")
 
 _STATUS = {0: Status.COMPLETED, 1: Status.LEFT_TRACK, 2: Status.NON_FINITE}
 _PYTHON = int(KIND.PYTHON)
+# plain ints for the compiled loop (numba folds module-level ints into constants)
+_W_LEFT, _W_RIGHT = int(GC.W_LEFT), int(GC.W_RIGHT)
+_ROLL, _PITCH = int(TenDoFState.roll), int(TenDoFState.pitch)
+_OMEGA_FL = int(TenDoFState.omega_fl)
+_F_HAT = int(IST.F_HAT)
 
 
 class LOG(enum.IntEnum):
@@ -250,7 +256,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         s, e_y, e_psi, _, seg = frenet_project(g, closed, truth[0], truth[1], truth[2], seg)
         s_unw += progress(s, s_prev, length, closed)
         s_prev = s
-        w = g[seg, 8] if e_y > 0.0 else g[seg, 9]
+        w = g[seg, _W_LEFT] if e_y > 0.0 else g[seg, _W_RIGHT]
         if not math.isfinite(w):
             w = half_width
         if abs(e_y) > w:
@@ -311,8 +317,8 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             row[0] = t
             for i in range(6):
                 row[1 + i] = truth[i]
-            row[7] = x[8] if plant == 0 else 0.0
-            row[8] = x[10] if plant == 0 else 0.0
+            row[7] = x[_ROLL] if plant == 0 else 0.0
+            row[8] = x[_PITCH] if plant == 0 else 0.0
             row[9] = s_unw
             row[10] = e_y
             row[11] = e_psi
@@ -323,11 +329,11 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             row[16] = delta
             row[17] = meas[3]
             row[18] = me_y
-            row[19] = s_lon[6] if kind == 1 or kind == 2 else math.nan
-            row[20] = s_lat[6] if kind == 1 or kind == 2 else math.nan
+            row[19] = s_lon[_F_HAT] if kind == 1 or kind == 2 else math.nan
+            row[20] = s_lat[_F_HAT] if kind == 1 or kind == 2 else math.nan
             row[21] = mu_f
             for i in range(4):
-                row[22 + i] = x[12 + i] if plant == 0 else math.nan
+                row[22 + i] = x[_OMEGA_FL + i] if plant == 0 else math.nan
             row[26] = t_ref
             n_log += 1
         if plant == 0:
