@@ -14,14 +14,14 @@ from __future__ import annotations
 import datetime
 import math
 import platform
-import time
 
 import numba
 import numpy as np
 
+from flatfree._timing import best_time
 from flatfree.controllers.flatness_control import (
-    FlatnessControlParams,
     FlatnessController,
+    FlatnessControlParams,
     flat_reference,
     flatness_reset,
     flatness_step,
@@ -66,12 +66,7 @@ def _loop(p, s, plant, n, dt, with_controller):
 
 
 def _best(fn, *args):
-    best = math.inf
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        fn(*args)
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_time(fn, *args, repeats=REPEATS)
 
 
 def main() -> None:

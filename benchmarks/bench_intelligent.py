@@ -16,11 +16,11 @@ from __future__ import annotations
 import datetime
 import math
 import platform
-import time
 
 import numba
 import numpy as np
 
+from flatfree._timing import best_time
 from flatfree.controllers.intelligent import (
     IST,
     IntelligentController,
@@ -60,12 +60,7 @@ def _closed_loop(p, s, n, dt, with_controller):
 
 
 def _best(fn, repeats=REPEATS):
-    best = math.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_time(fn, repeats=repeats)
 
 
 CASES = {

@@ -34,6 +34,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate import solve_ivp
 
+from flatfree._timing import best_time
 from flatfree.models.tendof import TenDoF, TenDoFOptions, TenDoFState, stable_step
 from flatfree.tires import mf_combined, mf_combined4
 from flatfree.units import G
@@ -44,12 +45,7 @@ S = TenDoFState
 
 
 def _best(fn, repeat: int = 5) -> float:
-    best = math.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_time(fn, repeats=repeat)
 
 
 def maneuver_60s(model: TenDoF, dt: float = 1e-3):

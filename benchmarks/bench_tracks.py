@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import math
 import statistics
-import time
 
 import numpy as np
 from numba import njit
 
 import flatfree.tracks as T
+from flatfree._timing import timings
 
 
 @njit
@@ -47,11 +47,7 @@ def _drive(trk, step, laps=2.0, amp=2.0):
 
 def _best(fn, *args, repeat=5):
     fn(*args)  # compile / warm up
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn(*args)
-        times.append(time.perf_counter() - t0)
+    times = timings(fn, *args, repeats=repeat)
     return min(times), statistics.median(times)
 
 

@@ -33,6 +33,7 @@ import click
 import numpy as np
 
 from flatfree import __version__
+from flatfree._timing import best_time
 
 __all__ = ["main", "count_corners", "SCENARIO_TEMPLATE"]
 
@@ -841,12 +842,7 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
 # bench
 # ------------------------------------------------------------------------------------------
 def _best(fn: Callable[[], Any], repeats: int) -> float:
-    best = math.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_time(fn, repeats=repeats)
 
 
 def _bench_results(quick: bool) -> dict[str, Any]:
