@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import math
 import re
-import time
 
 import numpy as np
 from numba import njit
 
 from flatfree import _vecmath as vm
 from flatfree import load_tire, tires
+from flatfree._timing import best_time
 from flatfree.tires import mf_combined, mf_combined4, mf_fx0, mf_fy0, slip_angle, slip_ratio
 
 N = 2_000_000
@@ -120,21 +120,13 @@ def _array_loop(fn):
 
 
 def _best(f, n, *args) -> float:
-    best = float("inf")
-    for _ in range(5):
-        t0 = time.perf_counter()
-        f(n, *args)
-        best = min(best, time.perf_counter() - t0)
-    return best / n * 1e9
+    """ns per call of a compiled loop ``f(n, *args)`` running ``n`` calls."""
+    return best_time(f, n, *args) / n * 1e9
 
 
 def _best_array(f, x, out) -> float:
-    best = float("inf")
-    for _ in range(5):
-        t0 = time.perf_counter()
-        f(x, out)
-        best = min(best, time.perf_counter() - t0)
-    return best / x.size * 1e9
+    """ns per element of ``f(x, out)``."""
+    return best_time(f, x, out) / x.size * 1e9
 
 
 def vectorisation_report() -> None:
@@ -201,5 +193,38 @@ def main() -> None:
     vectorisation_report()
 
 
+def ellipse_exceedance() -> None:
+    """Friction-ellipse exceedance of the combined forces on low-friction roads.
+
+    sup over slips of (F_x/(mu_x F_z))^2 + (F_y/(mu_y F_z))^2, on a 401 x 321 grid (kappa in
+    [-1, 1], alpha in [-0.8, 0.8] rad, F_z = 4 kN), for flatfree's combined slip (weighting
+    functions at slip / mu_scale, tires.mf_combined) and for the plain MF 5.2 weighting (weights
+    evaluated at the unscaled slips: G(kappa, alpha) F_0(s; mu), with G read off mf_combined at
+    mu_scale = 1 as F / F_0).
+    """
+    from flatfree.tires import combined, friction_coefficients, fx0, fy0
+
+    k, a = np.meshgrid(np.linspace(-1.0, 1.0, 401), np.linspace(-0.8, 0.8, 321))
+    fz = 4000.0
+    print("friction-ellipse exceedance sup((Fx/mux Fz)^2 + (Fy/muy Fz)^2), grid, Fz = 4 kN:")
+    for name in ("commonroad", "pacejka2006_205_60R15"):
+        tire = load_tire(name)
+        fx1, fy1 = combined(k, a, fz, tire, 1.0)
+        fx01, fy01 = fx0(k, fz, tire, 1.0), fy0(a, fz, tire, 1.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            gx = np.where(fx01 != 0.0, fx1 / fx01, 1.0)
+            gy = np.where(fy01 != 0.0, fy1 / fy01, 1.0)
+        row = []
+        for mu in (1.0, 0.5, 0.1):
+            mx, my = friction_coefficients(tire, fz, mu_scale=mu)
+            fx, fy = combined(k, a, fz, tire, mu)
+            ours = np.max((fx / (mx * fz)) ** 2 + (fy / (my * fz)) ** 2)
+            px, py = gx * fx0(k, fz, tire, mu), gy * fy0(a, fz, tire, mu)
+            plain = np.max((px / (mx * fz)) ** 2 + (py / (my * fz)) ** 2)
+            row.append(f"mu {mu:3.1f}: flatfree {ours:5.3f}, plain MF 5.2 {plain:5.3f}")
+        print(f"  {name:24s} " + "; ".join(row))
+
+
 if __name__ == "__main__":
     main()
+    ellipse_exceedance()

@@ -100,10 +100,11 @@ __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "
 DEFAULT_HALF_WIDTH_M = 7.5
 #: Time step of the reference tables [s]; the loop interpolates them linearly at every plant
 #: step. 10 ms: a 10-minute run then holds 60 000 reference rows instead of 600 000 (the
-#: 1 ms tables took ~300 MB). Measured against 1 ms tables (Norisring, Spa): position 8e-5 m,
-#: heading 1.3e-5 rad, curvature 4e-6 1/m, vx 0.019 m/s at the corners of the profile
-#: (4e-4 of its range, RMS 6e-6); the piecewise-constant ax is smeared over 10 ms at its
-#: jumps (RMS 1 % of its range). Engineering choice.
+#: 1 ms tables took ~300 MB). Measured against 1 ms tables (Norisring, Spa; checked in
+#: tests/test_simulation.py): position 7.5e-5 m, heading 1.3e-5 rad, curvature 4e-6 1/m,
+#: vx 0.019 m/s at the corners of the profile (4e-4 of its range; RMS 6e-6 of its range); the
+#: piecewise-constant ax is smeared over 10 ms at its jumps (RMS 1 % of its range).
+#: Engineering choice.
 REFERENCE_DT_S = 0.01
 #: Measured signals, in the order the sensors see them.
 SENSOR_CHANNELS = ("x", "y", "psi", "vx", "vy", "r")

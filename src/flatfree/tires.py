@@ -358,10 +358,11 @@ def mf_combined(kappa: float, alpha: float, fz: float, mu_scale: float, tp: np.n
     ``F_0(s; mu) = mu F_0(s / mu; 1)`` (B = K / (C D)), the combined forces then obey the same
     similarity, ``F(kappa, alpha; mu) = mu F(kappa / mu, alpha / mu; 1)``: a low-friction road
     keeps the shape of the combined-slip envelope and its friction-ellipse exceedance. With the
-    plain MF 5.2 weighting the exceedance grows from 1.26 at mu_scale = 1 to 1.54 at 0.5 and
-    1.94 at 0.1 (CommonRoad set with its r_By3), i.e. a wet road would grip far outside its
-    ellipse. At ``mu_scale = 1`` both are identical (and identical to CommonRoad's, see the
-    tests).
+    plain MF 5.2 weighting the exceedance (sup of the ellipse sum) grows from 1.21 at
+    mu_scale = 1 to 1.51 at 0.5 and 1.93 at 0.1 for the bundled CommonRoad set (1.04, 1.39,
+    1.91 for the 205/60R15 set; benchmarks/bench_tires.py, ``ellipse_exceedance``), i.e. a wet
+    road would grip far outside its ellipse. At ``mu_scale = 1`` both are identical (and
+    identical to CommonRoad's, see the tests).
 
     Parameters
     ----------
