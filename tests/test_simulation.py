@@ -140,6 +140,69 @@ def test_yaw_damper_term_is_minus_k_r_times_r_minus_vx_kappa():
     assert delta == pytest.approx(-0.3 * (0.25 - 20.0 * 0.01), rel=1e-12)
 
 
+def _natural_step(c, vx: float) -> float:
+    from flatfree.controllers.vehicle import CREF, MEAS, vehicle_step
+
+    meas = np.zeros(len(MEAS))
+    meas[MEAS.VX] = vx
+    cref = np.zeros(len(CREF))
+    cref[CREF.VX] = vx
+    _, delta = vehicle_step(c.kind, c.p_lon, c.s_lon, c.p_lat, c.s_lat, c.coef, c.f_lon, c.f_lat,
+                            c.f_yaw, meas, cref, math.nan, math.nan)
+    return delta
+
+
+def test_lateral_gains_follow_the_speed_schedule():
+    """kp = wn^2, kd = 2 zeta wn with wn = wn_lat min(max(v_s / Vx, 1), ratio) at the measured
+    speed (MfcNaturalSettings.wn_lat_speed); 0 switches the schedule off."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.intelligent import IPAR
+    from flatfree.controllers.vehicle import MfcNaturalSettings, build_mfc
+    from flatfree.vehicles import load_vehicle
+
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    st = MfcNaturalSettings(wn_lat=8.0, zeta_lat=0.8, wn_lat_speed=30.0, wn_lat_ratio=2.0)
+    c = build_mfc("mfc-natural", st, dt=0.001, actuators=act)
+    for vx, wn in ((45.0, 8.0), (30.0, 8.0), (20.0, 12.0), (15.0, 16.0), (6.0, 16.0)):
+        _natural_step(c, vx)
+        assert c.p_lat[IPAR.KP] == pytest.approx(wn * wn, rel=1e-14), vx
+        assert c.p_lat[IPAR.KD] == pytest.approx(2.0 * 0.8 * wn, rel=1e-14), vx
+    off = build_mfc("mfc-natural", MfcNaturalSettings(wn_lat=8.0, wn_lat_speed=0.0), dt=0.001,
+                    actuators=act)
+    _natural_step(off, 10.0)
+    assert off.p_lat[IPAR.KP] == 64.0 and off.p_lat[IPAR.KD] == 16.0
+    with pytest.raises(ValueError, match="wn_lat_speed"):
+        MfcNaturalSettings(wn_lat_speed=-1.0)
+    with pytest.raises(ValueError, match="wn_lat_ratio"):
+        MfcNaturalSettings(wn_lat_ratio=0.5)
+
+
+def test_controller_holds_and_run_starts_at_the_reference_steer():
+    """The model-free controller holds ``steer0`` until its window is full, and a run starts
+    with the actuator there: on LVMS the start line is in a curve (measured steer0 -6 mrad; the
+    check asks only for a material non-zero steer, > 1 mrad)."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import MfcNaturalSettings, build_mfc
+    from flatfree.models.bicycle3dof import Bicycle3DoFParams
+    from flatfree.simulation import prepare
+    from flatfree.tracks import reference_states_3dof
+    from flatfree.vehicles import load_vehicle
+
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    c = build_mfc("mfc-natural", MfcNaturalSettings(yaw_damping=0.0), dt=0.001, actuators=act,
+                  steer0=0.03)
+    assert [_natural_step(c, 20.0) for _ in range(5)] == [0.03] * 5
+    sc = _scenario(reference=ReferenceSpec(track="LVMS"), noise=False,
+                   timing=Timing(duration_s=0.2, log_dt_s=0.001))
+    prep = prepare(sc)
+    bic = Bicycle3DoFParams.from_vehicle(prep.vehicle)
+    lat = reference_states_3dof(prep.reference, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
+                                lf=bic.lf, lr=bic.lr)
+    assert prep.steer0 == float(lat.delta[0]) and abs(prep.steer0) > 1e-3
+    tr = simulate(sc)
+    assert tr["steer"][0] == prep.steer0
+
+
 def test_flatness_runs_in_the_loop_and_plans_with_its_own_model():
     from flatfree.controllers.vehicle import CREF
     from flatfree.simulation import prepare
@@ -170,9 +233,13 @@ class _WrappedNatural:
         from flatfree.controllers.vehicle import MfcNaturalSettings, build_mfc
         from flatfree.vehicles import load_vehicle
 
+        from flatfree.simulation import prepare
+
         act = ActuatorParams.from_vehicle(load_vehicle(sc.vehicle))
+        # the engine starts the actuator at the reference's steer; the built-in controller holds
+        # that until its window is full, and so must this one to be comparable
         self.c = build_mfc("mfc-natural", MfcNaturalSettings(), dt=sc.timing.control_dt_s,
-                           actuators=act)
+                           actuators=act, steer0=prepare(sc).steer0)
         self.calls = 0
 
     def reset(self):

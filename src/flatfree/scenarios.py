@@ -37,15 +37,15 @@ specific unit):
 - rates and delays: every channel at the controller's rate (the INS output up-sampled by its
   strapdown integration), no delay. Measured (Norisring, every channel noise-free): a 100 Hz
   sample-and-hold on every channel leaves the natural-output controller's max lateral error
-  at 2.58 cm, a 10 ms delay on every channel gives 2.54 cm; white position noise is what
-  matters.
+  at 2.58 cm, a 10 ms delay on every channel gives 2.54 cm (with its first, constant gains;
+  2.6 cm with none of them); white position noise is what matters.
 
 What the noise does (measured, benchmarks/README.md "Closed loop"): the natural-output iPD
 (nu = 2, 100-sample window at 1 kHz) turns 1 mm of white position noise into steer jitter well
 beyond the steer-rate limit (0.4 rad/s for the peugeot406), so with noise the applied steer
 moves at the rate limit most of the time (steer-rate RMS 0.33 rad/s, against 0.06 rad/s
-noise-free); the errors stay small (2.9 cm max on Norisring; with 2 mm: 3.3 cm). Without the
-yaw damper (the paper's design as printed) 1 mm already made it leave Monza, Spa and, for
+noise-free); the errors stay small (1.6 cm max on Norisring, seed 0; 1.4-2.0 cm over seeds
+0-9). Without the yaw damper (the paper's design as printed) 1 mm already made it leave Monza, Spa and, for
 half of the seeds, Norisring.
 
 References

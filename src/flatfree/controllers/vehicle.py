@@ -88,6 +88,7 @@ from flatfree.controllers.flatness_control import (
 )
 from flatfree.controllers.flatness_control import make_state as flat_make_state
 from flatfree.controllers.intelligent import (
+    IPAR,
     IST,
     IntelligentParams,
     intelligent_set_applied,
@@ -189,7 +190,8 @@ OUTER_WN = 2.0
 MFC_FLAT_OUTER_WN = 1.0
 #: Default damping of the outer path-following loop [-]: critically damped.
 OUTER_ZETA = 1.0
-#: Floor on the speed dividing e_y in the outer loop [m/s] (standstill guard).
+#: Floor on the speed dividing e_y in the outer loop and the lateral speed schedule [m/s]
+#: (standstill guard).
 _OUTER_V_MIN = 5.0
 
 
@@ -273,7 +275,21 @@ class MfcNaturalSettings:
         of the order of C_f / m (the direct effect of the front lateral force).
     wn_lat, zeta_lat : float
         Natural frequency [rad/s] and damping [-] of the designed lateral error dynamics
-        e'' + 2 zeta wn e' + wn^2 e = 0 (kp = wn^2, kd = 2 zeta wn).
+        e'' + 2 zeta wn e' + wn^2 e = 0 (kp = wn^2, kd = 2 zeta wn), at and above
+        ``wn_lat_speed``.
+    wn_lat_speed : float
+        Speed [m/s] below which the lateral error dynamics are made faster in inverse
+        proportion to the measured speed, ``wn = wn_lat min(wn_lat_speed / Vx, wn_lat_ratio)``
+        (kp and kd follow, zeta kept); 0: off (``wn = wn_lat`` always). Why: the largest errors
+        with a constant ``wn`` are at the entries of slow corners (Norisring's hairpin, braking
+        at 6 m/s^2 from 20 m/s: 2.6 cm noise-free at ``wn`` 8, 1.2 cm at 12), where the F
+        estimator's lag meets the fastest change of the lateral demand; but a constant
+        ``wn`` of 10-12 loses the fast tracks (Spa, LVMS: measured). The yaw mode left as zero
+        dynamics (``yaw_damping``) is damped in proportion to ``1 / Vx``, so the loop can be
+        faster where the car is slow. No vehicle parameter enters; the same rule serves every
+        track (benchmarks/README.md "Closed loop").
+    wn_lat_ratio : float
+        Largest ratio ``wn / wn_lat`` of the schedule (>= 1).
     window_lat : int
         Samples of the F estimator window (lateral loop).
     derivative_lat : str
@@ -322,6 +338,8 @@ class MfcNaturalSettings:
     alpha_lat: float = 30.0
     wn_lat: float = 8.0
     zeta_lat: float = 1.0
+    wn_lat_speed: float = 30.0
+    wn_lat_ratio: float = 2.0
     window_lat: int = 100
     derivative_lat: str = "model"
     denoise_lon: int = 0
@@ -342,6 +360,11 @@ class MfcNaturalSettings:
         positive("kp_lon", self.kp_lon, "1/s")
         positive("alpha_lat", self.alpha_lat, "(m/s^2)/rad")
         positive("wn_lat", self.wn_lat, "rad/s")
+        if finite("wn_lat_speed", self.wn_lat_speed, "m/s") < 0.0:
+            raise ValueError(f"wn_lat_speed = {self.wn_lat_speed!r} m/s: must be >= 0 "
+                             "(0: no schedule)")
+        if finite("wn_lat_ratio", self.wn_lat_ratio, "-") < 1.0:
+            raise ValueError(f"wn_lat_ratio = {self.wn_lat_ratio!r}: must be >= 1")
         positive("zeta_lat", self.zeta_lat, "-")
         for k in ("window_lon", "window_lat"):
             v = getattr(self, k)
@@ -531,7 +554,8 @@ class VehicleControllerArrays:
     s_lat: np.ndarray
     coef: np.ndarray  # [denoise_lon on, denoise_lat on, a, b, yaw damping k_r, feed applied,
     #                   denoise_yaw on, path correction on, outer_wn, outer_zeta,
-    #                   sideslip feedforward on, integral on, dt, integrator of e_y / v];
+    #                   sideslip feedforward on, integral on, dt, integrator of e_y / v,
+    #                   then mfc-natural only: zeta_lat, wn_lat, wn_lat_speed, wn_lat_ratio];
     #                   mfc-flat a, b = lf m, Iz; flatness a = dt
     f_lon: np.ndarray  # denoiser kernel state of the speed loop's measurement (or a dummy)
     f_lat: np.ndarray  # denoiser kernel state of the lateral loop's measurement (or a dummy)
@@ -588,8 +612,11 @@ def flatness_params(settings: FlatnessSettings, *, dt: float,
 
 def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams,
               mass: float = math.nan, iz: float = math.nan, lf: float = math.nan,
-              torque0: float = 0.0) -> VehicleControllerArrays:
+              torque0: float = 0.0, steer0: float = 0.0) -> VehicleControllerArrays:
     """Arrays of a model-free vehicle controller at control period ``dt`` [s].
+
+    ``torque0`` [N m] and ``steer0`` [rad] are the inputs the controllers hold until their
+    estimator windows are full (the actuators' positions when the controller is switched on).
 
     The intelligent controllers' limits mirror the actuators' (so that the F estimators see the
     input actually applied): steer range and rate, torque between -max_brake_torque and
@@ -601,7 +628,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
     # it applied; a second rate limit inside the iPD would integrate the yaw damper's term
     feed = bool(getattr(settings, "feed_applied", False))
     steer_lim = dict(u_min=-actuators.max_steer, u_max=actuators.max_steer,
-                     rate_max=math.inf if feed else actuators.max_steer_rate)
+                     rate_max=math.inf if feed else actuators.max_steer_rate, u0=steer0)
     torque_lim = dict(u_min=-actuators.max_brake_torque, u_max=actuators.max_drive_torque,
                       u0=torque0)
     if controller == "mfc-natural":
@@ -615,7 +642,8 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
         kind = KIND.MFC_NATURAL
         coef = np.array([float(s.denoise_lon > 0), float(s.denoise_lat > 0), 0.0, 0.0,
                          s.yaw_damping, float(s.feed_applied), float(s.denoise_yaw > 0),
-                         *([0.0] * 7)])
+                         *([0.0] * 7), s.zeta_lat, s.wn_lat, s.wn_lat_speed,
+                         s.wn_lat_ratio])
     elif controller == "mfc-flat":
         s2: MfcFlatSettings = settings
         positive("mass", mass, "kg")
@@ -681,6 +709,11 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         yr, yrd, yrdd = y2r, cref[3], 0.0
     if coef[1] != 0.0 and math.isfinite(y):
         y = fir_update(f_lat, y)  # NOTES.md denoiser (2T - 3d)
+    if kind == 2 and coef.shape[0] > 17 and coef[16] > 0.0 and math.isfinite(meas[3]):
+        # speed schedule of the lateral error dynamics (MfcNaturalSettings.wn_lat_speed)
+        wn = coef[15] * min(max(coef[16] / max(meas[3], _OUTER_V_MIN), 1.0), coef[17])
+        p_lat[IPAR.KP] = wn * wn
+        p_lat[IPAR.KD] = 2.0 * coef[14] * wn
     delta = intelligent_step(p_lat, s_lat, y, yr, yrd, yrdd)
     if coef[4] != 0.0:
         # parameter-free yaw damper (MfcNaturalSettings.yaw_damping): r - Vx kappa(s)
