@@ -36,6 +36,7 @@ _METRICS = ("lateral_error_max_m", "lateral_error_rms_m", "yaw_error_max_deg",
 
 
 _IDS = [f"{c['scenario']}@{c['track']}-{c.get('duration_s', 'lap')}"
+        + (f"-{c['vehicle']}" if "vehicle" in c else "")
         + ("-" + "-".join(f"{k}={v}" for k, v in c["settings"].items()) if "settings" in c
            else "") for c in _CASES]
 
@@ -44,6 +45,8 @@ _IDS = [f"{c['scenario']}@{c['track']}-{c.get('duration_s', 'lap')}"
 def test_lap_within_reviewed_bounds(case):
     sc = named_scenario(case["scenario"], track=case["track"], seed=case.get("seed", 0),
                         duration_s=case.get("duration_s"))
+    if "vehicle" in case:
+        sc = sc.with_(vehicle=case["vehicle"])
     if "settings" in case:
         sc = sc.with_(controller_settings={**sc.controller_settings, **case["settings"]})
     tr = simulate(sc)

@@ -251,8 +251,10 @@ class KIND(enum.IntEnum):
 class MfcNaturalSettings:
     """Settings of the model-free controller on natural outputs (iP on Vx, iPD on e_y).
 
-    The defaults are the settings of every named scenario (flatfree.scenarios), the same on
-    every track and for both presets tried (peugeot406, dallara_av21), at a 1 kHz control rate.
+    The defaults are the settings of the named peugeot406 scenarios (flatfree.scenarios), the
+    same on every track, at a 1 kHz control rate; the dallara_av21 (``recorded``) uses them with
+    ``alpha_lat`` 60 (:data:`flatfree.scenarios.DALLARA_NATURAL_SETTINGS`: alpha follows the
+    car's steer gain; 30 puts the iPD below its stable range on that car, measured).
     They were chosen by sweeps on the 10DoF plant with the realistic sensors over Norisring,
     Monza, Spa and Budapest, several seeds (worst max lateral error, completion, steer rate);
     the record is benchmarks/README.md "Closed loop". ``yaw_damping = 0`` with
