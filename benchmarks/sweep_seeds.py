@@ -1,0 +1,90 @@
+"""Seed sweep of the natural-output controller over every bundled track (issue 7).
+
+Run as a script::
+
+    python benchmarks/sweep_seeds.py                 # 10 seeds, every track, `paper`
+    python benchmarks/sweep_seeds.py --seeds 3 --tracks Norisring,Spa
+    python benchmarks/sweep_seeds.py --vehicle dallara_av21 --set alpha_lat=60 --tracks LVMS
+
+It prints, per track, the range of the max lateral error (after the 1 s start-up, whole laps)
+over the seeds that completed, which seeds left the track and when, the worst max yaw error,
+and the noise-free run. These are the tables of benchmarks/README.md "Closed loop" (session 2);
+the sensor noise is the only thing that changes between seeds. Nothing here is a test: the
+reviewed per-seed bounds are tests/paper_scenario_bounds.json. A whole sweep (70 laps) takes
+about a minute on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from flatfree.metrics import compute_metrics
+from flatfree.scenarios import named_scenario
+from flatfree.simulation import simulate
+from flatfree.tracks import track_names
+
+
+def _value(text: str) -> float | int | str | bool:
+    if text in ("true", "false"):
+        return text == "true"
+    for cast in (int, float):
+        try:
+            return cast(text)
+        except ValueError:
+            pass
+    return text
+
+
+def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict):
+    sc = named_scenario(name, track=track, seed=seed)
+    if vehicle:
+        sc = sc.with_(vehicle=vehicle)
+    if settings:
+        sc = sc.with_(controller_settings={**sc.controller_settings, **settings})
+    tr = simulate(sc)
+    return tr, compute_metrics(tr)
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", default="paper", help="a track scenario name (default paper)")
+    ap.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
+    ap.add_argument("--tracks", default=",".join(track_names()),
+                    help="comma-separated bundled tracks (default: all)")
+    ap.add_argument("--vehicle", default=None, help="replace the scenario's vehicle preset")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="controller setting override (repeatable)")
+    args = ap.parse_args(argv)
+    settings = {}
+    for item in args.set:
+        key, sep, val = item.partition("=")
+        if not sep:
+            raise SystemExit(f"--set {item!r}: expected KEY=VALUE")
+        settings[key] = _value(val)
+    base = args.scenario.removesuffix("-noise-free")
+    print(f"scenario {base}, seeds 0-{args.seeds - 1}, vehicle {args.vehicle or 'default'}, "
+          f"settings {settings or 'default'}")
+    t0 = time.perf_counter()
+    for track in args.tracks.split(","):
+        maxima, left, yaw = [], [], 0.0
+        for seed in range(args.seeds):
+            tr, m = _run(base, track, seed, args.vehicle, settings)
+            if m.status == "completed":
+                maxima.append(m.lateral_error_max_m)
+                yaw = max(yaw, m.yaw_error_max_deg)
+            else:
+                left.append(f"{seed} ({m.status} at {tr.status_time:.1f} s)")
+        _, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings)
+        span = (f"{100 * min(maxima):.2f}-{100 * max(maxima):.2f} cm" if maxima
+                else "none completed")
+        clean_txt = (f"{100 * clean.lateral_error_max_m:.2f} cm"
+                     if clean.status == "completed" else clean.status)
+        print(f"{track:10s} max lateral {span:16s} completed {len(maxima)}/{args.seeds}  "
+              f"max yaw {yaw:.2f} deg  noise-free {clean_txt}"
+              + (f"  left: {', '.join(left)}" if left else ""), flush=True)
+    print(f"wall time {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
