@@ -15,6 +15,33 @@ backward pass does the same for braking; on a closed track both passes wrap arou
 and repeat until nothing changes (the result is then periodic). The maximal feasible profile
 is the result (the classic "forward-backward" or "quasi-steady-state" method).
 
+Power-aware drive limit (optional, ``speed_profile(..., vehicle=...)``). The friction ellipse
+knows the tyres, not the engine. Given a :class:`~flatfree.vehicles.VehicleParams`, the forward
+(accelerating) pass also keeps every segment within what the powertrain can give against the
+driving resistances ([VM] 1.9, the same model as ``flatfree.simulation.flying_lap_speed``):
+
+    a_p(v) = (F_drive(v) - 1/2 rho C_d A v^2 - f_r m g) / m,
+    F_drive(v) = min(max_drive_torque / R_e, max_power / v),
+
+(:func:`drive_acceleration`), and a_drive(v) = min(a_x,max, a_p(v)). The engine limit is a
+separate cut of the ellipse, not a smaller ellipse: the segment's end speed is the smaller of
+the friction-ellipse cap above (lateral load at both end nodes) and the power cap, the
+solution of d(v^2)/ds = 2 a_drive(v) over the segment taken with ONE Heun step in v^2:
+
+    w* = v_i^2 + 2 ds a_drive(v_i),   v_{i+1}^2 <= v_i^2 + ds (a_drive(v_i) + a_drive(sqrt w*)).
+
+Because a_drive decreases with v, the segment's constant acceleration is then <= a_drive(v_i)
+(exactly) and exceeds a_drive(v_{i+1}) by at most (a_drive(v_i) - a_drive(v_{i+1})) / 2.
+Accuracy against the exact solution of d(v^2)/ds = 2 a_drive(v) on a straight (peugeot406,
+tests/test_speed_power.py): second order, 2.1e-6 m/s on a 1 m grid where a_p is smooth; where
+a_drive switches from the friction limit to the power limit its slope in s jumps by c, and the
+one segment holding that kink adds at most c ds^2 / (16 v) (1.5e-4 m/s at 1 m; measured 1.46e-4
+for the worst placement of the kink in the segment, 1.7e-5 from rest). Every node is also capped
+at the car's top speed v_top (a_p(v_top) = 0): above it the car could only coast down, and on a
+closed track the periodic fixed point would be approached only geometrically. The braking pass
+is unchanged: it ignores drag and rolling resistance, which would only help the car slow down,
+so the braking side stays conservative (feasible with the brakes alone).
+
 References
 ----------
 [FB] E. Velenis, P. Tsiotras, "Minimum-time travel for a vehicle with acceleration limits:
@@ -23,6 +50,9 @@ References
 [QSS] N. R. Kapania, J. Subosits, J. C. Gerdes, "A sequential two-step algorithm for fast
      generation of vehicle racing trajectories", J. Dyn. Sys. Meas. Control 138(9), 2016
      (lateral limit v = sqrt(mu g / |kappa|), forward and backward passes on a friction circle).
+[VM] shared/reference/VEHICLE_MODEL.md 1.9 (aerodynamic drag 1/2 rho C_d A v^2, rolling
+     resistance f_r m g); the power cap of the drive torque:
+     :class:`flatfree.actuators.ActuatorParams`.
 """
 
 from __future__ import annotations
@@ -36,8 +66,22 @@ import numpy as np
 from flatfree._validate import positive
 from flatfree.tracks.geometry import Track
 from flatfree.units import G
+from flatfree.vehicles.params import VehicleParams
 
-__all__ = ["SpeedLimits", "SpeedProfile", "speed_profile", "constant_speed_profile"]
+__all__ = [
+    "SpeedLimits",
+    "SpeedProfile",
+    "constant_speed_profile",
+    "drive_acceleration",
+    "speed_profile",
+    "top_speed",
+]
+
+#: Speed floor of the power cap max_power / v [m/s] (the same floor as
+#: ``flatfree.simulation.flying_lap_speed``): below it the torque limit binds for any real car.
+_V_FLOOR = 1e-3
+#: Index of the drive-model array built by :func:`_drive_array`.
+_M, _FDRIVE, _PMAX, _KDRAG, _FROLL, _UTOP = range(6)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -109,9 +153,67 @@ def _accel_cap(u0, k0, k1, ds, ax, ay):
     return min(cap0, cap1)
 
 
+@numba.njit(cache=True, inline="always")
+def _drive_acc(v, drv):
+    """Power-limited drive acceleration a_p(v) [m/s^2] of the drive model ``drv`` (module doc)."""
+    f_drive = min(drv[_FDRIVE], drv[_PMAX] / max(v, _V_FLOOR))  # torque limit, power cap
+    # [VM] 1.9: drag 1/2 rho C_d A v^2, rolling resistance f_r m g
+    return (f_drive - drv[_KDRAG] * v * v - drv[_FROLL]) / drv[_M]
+
+
 @numba.njit(cache=True)
-def _passes(kappa, ds, u_lat, ax_d, ax_b, ay, closed, u_first, u_last, max_sweeps):
-    """Forward-backward passes on v^2 (u). ``u_lat`` holds the lateral/top-speed caps."""
+def _drive_acc_many(v, drv):
+    out = np.empty_like(v)
+    for i in range(v.shape[0]):
+        out[i] = _drive_acc(v[i], drv)
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def _power_cap(u0, ds, ax, drv):
+    """Largest v1^2 the powertrain reaches from v0^2 = u0 over ds: one Heun step in v^2 of
+    d(v^2)/ds = 2 min(ax, a_p(v)) (module doc)."""
+    a0 = min(ax, _drive_acc(math.sqrt(u0), drv))
+    w1 = u0 + 2.0 * ds * a0  # predictor
+    a1 = min(ax, _drive_acc(math.sqrt(max(w1, 0.0)), drv))
+    cap = u0 + ds * (a0 + a1)  # corrector (trapezoidal rule in s)
+    if cap < u0 <= drv[_UTOP]:
+        # at or below v_top the exact solution never decreases; only rounding near v_top
+        # (a_p ~ 0) gets here, and it must not shave a little off the speed at every node
+        cap = u0
+    return max(cap, 0.0)
+
+
+@numba.njit(cache=True)
+def _top_speed(drv):
+    """Largest v with a_p(v) >= 0 (bisection to adjacent floats; a_p decreases with v).
+
+    0 if a_p(0) <= 0; inf if a_p stays positive up to 1e6 m/s (no drag, no rolling resistance).
+    """
+    if _drive_acc(0.0, drv) <= 0.0:
+        return 0.0
+    hi = 1.0
+    while _drive_acc(hi, drv) >= 0.0:
+        hi *= 2.0
+        if hi > 1e6:
+            return np.inf
+    lo = 0.0
+    for _ in range(2000):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if _drive_acc(mid, drv) >= 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True)
+def _passes(kappa, ds, u_lat, ax_d, ax_b, ay, closed, u_first, u_last, max_sweeps, drv):
+    """Forward-backward passes on v^2 (u). ``u_lat`` holds the lateral/top-speed caps;
+    ``drv`` the drive model (see :func:`_drive_array`) or an empty array (friction only)."""
+    power = drv.shape[0] > 0
     n = kappa.shape[0]  # nodes; on a closed track node n-1 is node 0 again
     u = u_lat.copy()
     if not closed:
@@ -134,6 +236,8 @@ def _passes(kappa, ds, u_lat, ax_d, ax_b, ay, closed, u_first, u_last, max_sweep
             i = (start + k) % m if closed else k
             j = (i + 1) % m if closed else i + 1
             cap = _accel_cap(u[i], kappa[i], kappa[j], ds, ax_d, ay)
+            if power:
+                cap = min(cap, _power_cap(u[i], ds, ax_d, drv))
             if cap < u[j]:
                 if u[j] - cap > 1e-12 * (1.0 + u[j]):
                     changed = True
@@ -178,6 +282,8 @@ class SpeedProfile:
         dt_i = 2 ds / (v_i + v_{i+1}).
     limits : SpeedLimits or None
         The limits it was built for (None for a prescribed profile).
+    vehicle : VehicleParams or None
+        The vehicle whose drive limit it respects (None: friction limits only).
     """
 
     track: Track = field(repr=False)
@@ -186,6 +292,7 @@ class SpeedProfile:
     a: np.ndarray = field(repr=False)
     t: np.ndarray = field(repr=False)
     limits: SpeedLimits | None = None
+    vehicle: VehicleParams | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         for name in ("s", "v", "a", "t"):
@@ -227,14 +334,77 @@ def _node_times(v: np.ndarray, ds: float, where: str) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(2.0 * ds / vsum)])
 
 
+def _drive_array(vehicle) -> np.ndarray:
+    """The drive model of ``vehicle`` as a float array (m, F_drive,max, P_max, k_drag, F_roll,
+    v_top^2)."""
+    if not isinstance(vehicle, VehicleParams):  # house style: ValueError naming the field
+        raise ValueError(  # noqa: TRY004
+            f"vehicle = {vehicle!r}: expected a flatfree.vehicles.VehicleParams "
+            "(e.g. load_vehicle('peugeot406'))")
+    m = vehicle.mass
+    drv = np.empty(6)
+    drv[_M] = m
+    drv[_FDRIVE] = vehicle.max_drive_torque / vehicle.wheel_radius  # actuator torque limit
+    drv[_PMAX] = vehicle.max_power  # drive force capped by max_power / v
+    drv[_KDRAG] = 0.5 * vehicle.air_density * vehicle.drag_area  # [VM] 1.9: 1/2 rho C_d A
+    drv[_FROLL] = vehicle.rolling_resistance * m * G  # [VM] 1.9: f_r m g
+    drv[_UTOP] = _top_speed(drv) ** 2  # reads the entries above only
+    return drv
+
+
+def drive_acceleration(v, vehicle: VehicleParams) -> np.ndarray:
+    """Largest forward acceleration the powertrain of ``vehicle`` gives at speed ``v`` [m/s^2].
+
+    a_p(v) = (min(max_drive_torque / R_e, max_power / v) - 1/2 rho C_d A v^2 - f_r m g) / m
+
+    on a level road, tyres not slipping (no friction limit: :func:`speed_profile` takes the
+    smaller of this and its friction ellipse). The power cap uses max(v, 1e-3 m/s), so a_p(0)
+    is the torque-limited value. Negative above the car's top speed (:func:`top_speed`).
+    This is the model of ``flatfree.simulation.flying_lap_speed`` (same expressions).
+
+    Parameters
+    ----------
+    v : array_like
+        Speed(s) >= 0 [m/s].
+    vehicle : VehicleParams
+        Uses mass, wheel_radius, max_drive_torque, max_power, air_density, drag_area,
+        rolling_resistance.
+
+    Returns
+    -------
+    ndarray
+        a_p(v), the shape of ``v`` [m/s^2].
+
+    References
+    ----------
+    .. [VM] shared/reference/VEHICLE_MODEL.md 1.9 (drag, rolling resistance); the power cap:
+       :class:`flatfree.actuators.ActuatorParams`.
+    """
+    drv = _drive_array(vehicle)
+    va = np.asarray(v, dtype=float)
+    if not (np.isfinite(va).all() and (va >= 0.0).all()):
+        raise ValueError(f"v = {v!r} m/s: every speed must be finite and >= 0")
+    flat = np.ascontiguousarray(va.reshape(-1))
+    return _drive_acc_many(flat, drv).reshape(va.shape)
+
+
+def top_speed(vehicle: VehicleParams) -> float:
+    """Top speed of ``vehicle`` on a level road [m/s]: the largest v with
+    :func:`drive_acceleration` ``(v) >= 0`` (to the last float; ``inf`` without any drag or
+    rolling resistance)."""
+    return float(_top_speed(_drive_array(vehicle)))
+
+
 def speed_profile(
     track: Track,
     limits: SpeedLimits | None = None,
     *,
     v_start: float | None = None,
     v_end: float | None = None,
+    vehicle: VehicleParams | None = None,
 ) -> SpeedProfile:
-    """The fastest speed profile of ``track`` within ``limits`` [QSS] [FB].
+    """The fastest speed profile of ``track`` within ``limits`` [QSS] [FB], optionally within
+    the drive limit of ``vehicle``.
 
     Parameters
     ----------
@@ -244,27 +414,53 @@ def speed_profile(
     v_start, v_end : float, optional
         Speed at the start / end of an OPEN path [m/s] (default: unconstrained, a flying
         start/finish). Not allowed on a closed track, whose profile is periodic.
+    vehicle : VehicleParams, optional
+        Also keep every accelerating segment within the car's drive acceleration
+        :func:`drive_acceleration` (torque and power limits against drag and rolling
+        resistance, one Heun step in v^2 per segment; see the module docstring) and every node
+        (``v_start`` too) at or below :func:`top_speed`. Braking is unchanged (drag ignored:
+        conservative).
+        None (default): friction limits only, the results of the friction-only profile bit
+        for bit.
 
     Returns
     -------
     SpeedProfile
+
+    Raises
+    ------
+    ValueError
+        ``vehicle`` is not a VehicleParams, or its drive force cannot overcome the rolling
+        resistance from rest; bad ``v_start``/``v_end``; a path that cannot be traversed.
     """
     lim = limits if limits is not None else SpeedLimits()
     if track.closed and (v_start is not None or v_end is not None):
         raise ValueError("v_start/v_end: a closed track has a periodic profile; leave them None")
     u_first = np.inf if v_start is None else positive_or_zero("v_start", v_start) ** 2
     u_last = np.inf if v_end is None else positive_or_zero("v_end", v_end) ** 2
+    if vehicle is None:
+        drv = np.empty(0)
+    else:
+        drv = _drive_array(vehicle)
+        if _drive_acc(0.0, drv) <= 0.0:
+            raise ValueError(
+                f"vehicle.max_drive_torque = {vehicle.max_drive_torque!r} N m: the drive force "
+                f"{drv[_FDRIVE]:.4g} N does not overcome the rolling resistance "
+                f"{drv[_FROLL]:.4g} N; the car cannot move off")
     kappa = np.ascontiguousarray(track.kappa)
     ay = lim.ay
     with np.errstate(divide="ignore"):
         u_lat = np.where(kappa != 0.0, ay / np.abs(kappa), np.inf)  # [QSS] v^2 |kappa| <= ay
     u_lat = np.minimum(u_lat, lim.v_max**2)
+    if vehicle is not None:
+        u_lat = np.minimum(u_lat, drv[_UTOP])  # the car's top speed (module doc)
     u, _ = _passes(kappa, track.ds, u_lat, lim.ax_drive, lim.ax_brake, ay, track.closed,
-                   u_first, u_last, 50)
+                   u_first, u_last, 50, drv)
     v = np.sqrt(u)
     a = (u[1:] - u[:-1]) / (2.0 * track.ds)
     t = _node_times(v, track.ds, f"speed profile of {track.name or 'track'}")
-    return SpeedProfile(track=track, s=track.s.copy(), v=v, a=a, t=t, limits=lim)
+    return SpeedProfile(track=track, s=track.s.copy(), v=v, a=a, t=t, limits=lim,
+                        vehicle=vehicle)
 
 
 def constant_speed_profile(track: Track, speed: float) -> SpeedProfile:
