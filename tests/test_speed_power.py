@@ -254,3 +254,20 @@ def test_bad_vehicle_raises_naming_the_field():
     for v in (-1.0, np.nan, [1.0, np.inf]):
         with pytest.raises(ValueError, match="^v = .* m/s"):
             drive_acceleration(v, PEUGEOT)
+
+
+def test_make_reference_plans_within_the_drive_limit():
+    """make_reference(vehicle=...) is speed_profile(vehicle=...) on the same track; a drive
+    limit on a prescribed speed is refused (it would be silently ignored)."""
+    from flatfree.tracks import load_track, make_reference, speed_profile
+
+    veh = load_vehicle("peugeot406")
+    trk = load_track("Norisring")
+    ref = make_reference(trk, dt=0.01, vehicle=veh)
+    prof = speed_profile(trk, vehicle=veh)
+    # the reference samples the profile in time: its speeds never exceed the profile's top
+    # (1e-9 m/s: rounding of the constant-acceleration interpolation)
+    assert ref["vx"].max() <= prof.v.max() + 1e-9
+    assert ref["vx"].max() < make_reference(trk, dt=0.01)["vx"].max() - 5.0
+    with pytest.raises(ValueError, match="vehicle"):
+        make_reference(trk, 20.0, vehicle=veh)

@@ -56,7 +56,9 @@ from flatfree.tracks.speed import (
     SpeedLimits,
     SpeedProfile,
     constant_speed_profile,
+    drive_acceleration,
     speed_profile,
+    top_speed,
 )
 
 __all__ = [
@@ -78,6 +80,7 @@ __all__ = [
     "constant_speed_profile",
     "double_lane_change_reference",
     "double_lane_change_track",
+    "drive_acceleration",
     "frenet_init",
     "frenet_project",
     "iso3888_1_gates",
@@ -96,5 +99,6 @@ __all__ = [
     "speed_profile",
     "speed_step_reference",
     "straight_track",
+    "top_speed",
     "track_names",
 ]

@@ -42,6 +42,7 @@ from flatfree.tracks.speed import (
     constant_speed_profile,
     speed_profile,
 )
+from flatfree.vehicles.params import VehicleParams
 
 __all__ = [
     "RS",
@@ -254,6 +255,7 @@ def make_reference(
     v_start: float | None = None,
     v_end: float | None = None,
     name: str | None = None,
+    vehicle: VehicleParams | None = None,
 ) -> Reference:
     """Reference signals to drive ``track`` on a uniform time grid.
 
@@ -274,6 +276,10 @@ def make_reference(
     v_start, v_end : float, optional
         Start / end speed of an open path [m/s] (see :func:`speed_profile`).
     name : str, optional
+    vehicle : VehicleParams, optional
+        Plan the speed profile within this car's drive limit too (torque, power, drag, rolling
+        resistance: ``speed_profile(..., vehicle=...)``); only with ``speed`` given as limits
+        (or None), an error otherwise.
 
     Returns
     -------
@@ -295,13 +301,17 @@ def make_reference(
         raise ValueError(f"laps = {laps}: only a closed track can be driven more than once")
     off = _offset_function(lateral_offset, track)
     line = track if off is None else track.offset(off[3])
+    if vehicle is not None and not (speed is None or isinstance(speed, SpeedLimits)):
+        raise ValueError(f"vehicle = {getattr(vehicle, 'name', vehicle)!r}: a drive limit "
+                         "applies to a planned profile only (speed = SpeedLimits or None), not "
+                         f"to speed = {speed!r}")
     if isinstance(speed, SpeedProfile):
         if off is not None or speed.track is not track:
             raise ValueError("speed: a SpeedProfile must belong to this track and needs "
                              "lateral_offset = 0 (pass SpeedLimits or a speed instead)")
         prof = speed
     elif speed is None or isinstance(speed, SpeedLimits):
-        prof = speed_profile(line, speed, v_start=v_start, v_end=v_end)
+        prof = speed_profile(line, speed, v_start=v_start, v_end=v_end, vehicle=vehicle)
     else:
         prof = constant_speed_profile(line, float(speed))
     total = prof.duration * laps
