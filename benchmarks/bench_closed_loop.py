@@ -5,8 +5,11 @@ Run as a script (``python benchmarks/bench_closed_loop.py``); it prints the figu
 
 1. a closed-loop 10DoF lap of the default track (``paper-noise-free`` scenario: peugeot406,
    natural-output model-free controller, plant and controller at 1 kHz, log at 100 Hz) after
-   JIT warm-up, best of 3: real-time factor (target >= 1000x on one core);
-2. the same with the ``paper`` sensors (noise drawn in advance) and for the other two designs;
+   JIT warm-up, best of 3: real-time factor (target >= 1000x on one core) and time per plant
+   step;
+2. the same with the ``paper`` sensors (noise drawn in advance), for the other two designs, on
+   the 3DoF plant (the loop's cost without the 10DoF model) and through the Python door (a
+   Python controller returning constants: the cost of one Python call per control step);
 3. peak memory of a 10-minute run logged at 100 Hz (target < 300 MB), measured in a fresh
    subprocess: the peak resident set size (``resource.getrusage``) with the baseline after the
    imports and a warm-up run beside it, and the peak of the run's own allocations
@@ -23,6 +26,7 @@ import subprocess
 import sys
 import time
 
+from flatfree.scenario import Timing
 from flatfree.scenarios import named_scenario
 from flatfree.simulation import simulate
 
@@ -46,15 +50,31 @@ print(f"{base:.1f} {peak:.1f} {heap:.1f} {tr.duration:.1f} {len(tr)} {tr.status.
 """
 
 
+class _Constant:
+    """A Python controller holding a small drive torque and the steer straight."""
+
+    def step(self, t, measurement, reference, applied):
+        return 100.0, 0.0
+
+
 def _best_rtf(name: str, repeats: int = 3) -> tuple[float, float, str]:
-    sc = named_scenario(name)
-    simulate(sc.with_(timing=sc.timing.__class__(duration_s=1.0)))  # JIT warm-up
+    """Best real-time factor of a named scenario; ``name:3dof`` on the 3DoF plant,
+    ``name:python`` through the Python door (:class:`_Constant`, 8 s: it stays on the road)."""
+    base, _, variant = name.partition(":")
+    sc = named_scenario(base)
+    controller = None
+    if variant == "3dof":
+        sc = sc.with_(plant="3dof")
+    elif variant == "python":
+        sc = sc.with_(timing=Timing(duration_s=8.0))
+        controller = _Constant()
+    simulate(sc.with_(timing=Timing(duration_s=1.0)), controller)  # JIT warm-up
     best = 0.0
     wall = 0.0
     status = ""
     for _ in range(repeats):
         t0 = time.perf_counter()
-        tr = simulate(sc)
+        tr = simulate(sc, controller)
         wall_total = time.perf_counter() - t0
         rtf = tr.meta["real_time_factor"]
         if rtf > best:
@@ -68,9 +88,11 @@ def main() -> None:
     print("1-2. closed-loop lap of the default track, plant and controller at 1 kHz "
           "(real-time factor of the compiled loop; wall incl. preparation)")
     for name in ("paper-noise-free", "paper", "paper-mfc-flat-noise-free",
-                 "paper-flatness-noise-free"):
+                 "paper-flatness-noise-free", "paper-noise-free:3dof",
+                 "paper-noise-free:python"):
         rtf, wall, status = _best_rtf(name)
-        print(f"  {name:28s} {rtf:8.0f}x real time  (prepare+run {wall:.2f} s; {status})")
+        print(f"  {name:28s} {rtf:8.0f}x real time = {1e3 / rtf:5.2f} us per 1 ms step  "
+              f"(prepare+run {wall:.2f} s; {status})")
     print("3. peak memory, 10-minute run logged at 100 Hz (fresh process)")
     out = subprocess.run([sys.executable, "-c", _MEM_SCRIPT], capture_output=True, text=True,
                          check=True).stdout.split()

@@ -7,6 +7,8 @@ argument reduction by selects instead of branches, a polynomial, and a few exact
 They are compiled with ``forceinline`` so that LLVM inlines them into the caller's loop and can
 evaluate 4 lanes at once in AVX2/AVX-512 registers (``flatfree.tires.mf_combined4``, the 10DoF
 model's tyres). They are private helpers for hot kernels; everywhere else use ``math``.
+:func:`no_refcount` gives the compile options of a kernel that needs no reference counting
+(allocation-free kernels of the 10DoF model and the closed loop).
 
 Methods (the classic schemes of [Muller] ch. 11 and [C&W]; coefficients computed here)
 --------------------------------------------------------------------------------------
@@ -69,7 +71,7 @@ from numba.core.errors import RequireLiteralValue
 from numba.extending import intrinsic
 from numba.np.arrayobj import load_item
 
-__all__ = ["atan", "sin", "cos", "exp", "as_tuple"]
+__all__ = ["atan", "sin", "cos", "exp", "as_tuple", "no_refcount"]
 
 # forceinline: LLVM inlines these into the calling loop (a call would stop vectorisation);
 # error_model="numpy": divisions have no zero check (a branch), x/0 gives inf as in IEEE 754;
@@ -141,6 +143,28 @@ def _float64_bits_as_int64(typingctx, x):
         return builder.bitcast(val, ir.IntType(64))
 
     return types.int64(x), codegen
+
+
+def no_refcount(options: dict) -> dict:
+    """``options`` plus ``_nrt=False`` when this numba knows the option (else unchanged).
+
+    numba increfs and decrefs every array argument (and every view) of a compiled function on
+    every call, with lock-prefixed atomic operations that its pruning pass cannot remove across
+    calls that are not inlined; in the 10DoF model they took ~37 % of the run time and in the
+    closed loop's controller ~30 % (perf and timings, benchmarks/README.md). A kernel that
+    allocates nothing and only indexes arrays owned by its caller for the whole call needs no
+    reference counting: ``_nrt=False`` compiles it without numba's runtime (an underscore
+    option, which numba's own string and sort kernels use for the same reason). Should a numba
+    release drop it, the option is left out (checked without compiling anything): the kernels
+    are then slower but identical.
+    """
+    try:
+        from numba.core.cpu import CPUTargetOptions
+
+        known = hasattr(CPUTargetOptions, "_nrt")
+    except ImportError:  # pragma: no cover - a numba without this module layout
+        known = False
+    return dict(options, _nrt=False) if known else dict(options)
 
 
 @intrinsic

@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from flatfree._validate import nonnegative, positive
+from flatfree._vecmath import no_refcount
 from flatfree.vehicles.params import VehicleParams
 
 __all__ = ["ActuatorParams", "actuate_step", "actuator_state"]
@@ -100,26 +101,36 @@ def actuator_state(params: ActuatorParams, dt: float, steer0: float = 0.0,
     return st
 
 
-@njit(cache=True)
+@njit(**no_refcount({"cache": True}))
 def actuate_step(torque_cmd, steer_cmd, vx, p, st):
     """Advance the actuators by one plant step; returns (torque_applied, steer_applied).
 
     ``p`` from :meth:`ActuatorParams.to_array`, ``st`` from :func:`actuator_state` (mutated).
-    A non-finite command is ignored (the previous command is repeated).
+    A non-finite command is ignored (the previous command is repeated). Allocation-free,
+    compiled without reference counting (``flatfree._vecmath.no_refcount``).
     """
     depth = (st.shape[0] - 3) // 2
     w = int(st[2])
+    # ring indices (w in [0, depth)): Python's modulo, without an integer division per step
+    # where the index is already in range (no delay)
+    prev = w - 1 if w > 0 else depth - 1
     if not math.isfinite(steer_cmd):
-        steer_cmd = st[3 + (w - 1) % depth]
+        steer_cmd = st[3 + prev]
     if not math.isfinite(torque_cmd):
-        torque_cmd = st[3 + depth + (w - 1) % depth]
+        torque_cmd = st[3 + depth + prev]
     st[3 + w] = steer_cmd
     st[3 + depth + w] = torque_cmd
     d_s = int(p[3])
     d_t = int(p[8])
-    steer_in = st[3 + (w - d_s) % depth]
-    torque_in = st[3 + depth + (w - d_t) % depth]
-    st[2] = (w + 1) % depth
+    i_s = w - d_s
+    if i_s < 0:
+        i_s %= depth
+    i_t = w - d_t
+    if i_t < 0:
+        i_t %= depth
+    steer_in = st[3 + i_s]
+    torque_in = st[3 + depth + i_t]
+    st[2] = w + 1 if w + 1 < depth else 0
     # steering: lag, rate limit, range
     target = st[0] + p[2] * (steer_in - st[0])
     dmax = p[1]

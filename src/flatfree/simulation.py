@@ -55,8 +55,8 @@ from typing import Protocol
 import numpy as np
 from numba import njit
 
+from flatfree._vecmath import no_refcount
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
-from flatfree.controllers.flatness_control import sample_flat_reference
 from flatfree.controllers.intelligent import IST
 from flatfree.controllers.vehicle import (
     CREF,
@@ -160,9 +160,17 @@ _UNITS = {
 }
 
 
-@njit(cache=True)
+# compiled-loop helpers and the loop allocate nothing (the caller passes every buffer), so they
+# are compiled without numba's reference counting (flatfree._vecmath.no_refcount): with it, every
+# array argument, row view and call of the loop cost lock-prefixed increfs and decrefs.
+_JIT_LOOP = no_refcount({"cache": True})
+
+
+@njit(**_JIT_LOOP)
 def _mu_at(s, base, patches, length, closed):
     """Road friction at arc length ``s``: the last patch containing it, else ``base``."""
+    if patches.shape[0] == 0:
+        return base
     if closed and length > 0.0:
         s = s - length * math.floor(s / length)
     mu = base
@@ -172,37 +180,65 @@ def _mu_at(s, base, patches, length, closed):
     return mu
 
 
+@njit(**_JIT_LOOP)
+def _time_at(table, s, i):
+    """Column 1 of ``table`` interpolated linearly at ``table[:, 0] = s``; returns (value, row).
+
+    The row is searched from ``i`` (the previous call's row) by walking: O(1) per call along a
+    run, where the arc length moves by less than a row per control step. The bracket
+    ``table[row, 0] <= s < table[row + 1, 0]`` is unique on a strictly increasing grid, so the
+    result is bit for bit :func:`flatfree.controllers.flatness_control.sample_flat_reference`'s
+    (binary search, same formula); ends held.
+    """
+    n = table.shape[0]
+    if s <= table[0, 0]:
+        return table[0, 1], 0
+    if s >= table[n - 1, 0]:
+        return table[n - 1, 1], max(n - 2, 0)
+    if math.isnan(s):
+        return math.nan, i
+    i = min(max(i, 0), n - 2)
+    while table[i, 0] > s:
+        i -= 1
+    while table[i + 1, 0] <= s:
+        i += 1
+    w = (s - table[i, 0]) / (table[i + 1, 0] - table[i, 0])
+    return (1.0 - w) * table[i, 1] + w * table[i + 1, 1], i
+
+
 # loop state kept between calls of _closed_loop (a Python controller pauses the loop)
 (_LS_INIT, _LS_SEG, _LS_SEG_M, _LS_S_PREV, _LS_S_UNW, _LS_S_PREV_M, _LS_S_UNW_M, _LS_T_REF,
  _LS_T_CTRL, _LS_TW_APP, _LS_DE_APP, _LS_TW_CMD, _LS_DE_CMD, _LS_ME_Y, _LS_N_LOG,
- _LS_RESUME) = range(16)
-_LS_N = 16
+ _LS_RESUME, _LS_ST_ROW) = range(17)
+_LS_N = 17
 _PAUSE = 3  # status code: a Python controller must give the commands for step k
 
 
-@njit(cache=True)
+def _loop_scratch(n: int) -> tuple:
+    """Work arrays of :func:`_closed_loop` for a plant of ``n`` states (allocated by the caller:
+    the loop itself allocates nothing)."""
+    return (np.empty(n), np.empty((5, n)), np.empty((4, 6)), np.zeros(6), np.empty(6),
+            np.empty(6))
+
+
+@njit(**_JIT_LOOP)
 def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                  kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw,
                  cref_table, g, closed, sched_path, st_table, s_end,
                  sens_table, noise, hist, held, act_p, act_s,
                  mu_base, patches, nan_faults, steer_faults,
-                 log, log_every, half_width, k0, ls, meas, crow):
+                 log, log_every, half_width, k0, ls, meas, crow, scratch):
     """The whole closed loop (module docstring). Returns (status code, step, rows logged).
 
     ``ls`` (length ``_LS_N``) carries the loop's own state between calls, ``meas`` (8) and
-    ``crow`` (1 + len(CREF)) the last measurement and controller reference. With ``kind`` =
-    ``KIND.PYTHON`` the loop returns ``_PAUSE`` at every control step with ``meas`` and
-    ``crow`` filled; the caller writes the commands into ``ls``, sets ``ls[_LS_RESUME]`` and
-    calls again with ``k0`` = the returned step.
+    ``crow`` (1 + len(CREF)) the last measurement and controller reference, ``scratch`` the
+    work arrays (:func:`_loop_scratch`). With ``kind`` = ``KIND.PYTHON`` the loop returns
+    ``_PAUSE`` at every control step with ``meas`` and ``crow`` filled; the caller writes the
+    commands into ``ls``, sets ``ls[_LS_RESUME]`` and calls again with ``k0`` = the returned
+    step.
     """
+    xn, work, diag, u, truth, meas6 = scratch
     n = x.shape[0]
-    xn = np.empty(n)
-    work = np.empty((5, n))
-    diag = np.empty((4, 6))
-    u = np.zeros(6)
-    truth = np.empty(6)
-    meas6 = np.empty(6)
-    strow = np.empty(2)
     length = g[g.shape[0] - 1, 0]
     off = 3  # index of vx in both plant layouts (X, Y, psi, vx, vy, r, ...)
     if ls[_LS_INIT] == 0.0:
@@ -224,6 +260,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         ls[_LS_ME_Y] = math.nan
         ls[_LS_N_LOG] = 0.0
         ls[_LS_RESUME] = 0.0
+        ls[_LS_ST_ROW] = 0.0
     seg = int(ls[_LS_SEG])
     seg_m = int(ls[_LS_SEG_M])
     s_prev = ls[_LS_S_PREV]
@@ -238,9 +275,14 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     delta_cmd = ls[_LS_DE_CMD]
     me_y = ls[_LS_ME_Y]
     n_log = int(ls[_LS_N_LOG])
+    st_row = int(ls[_LS_ST_ROW])
     resume = ls[_LS_RESUME] == 1.0
     ls[_LS_RESUME] = 0.0
     status = 0
+    # phases of the control and log clocks (k % ctrl_every, k % log_every) kept as counters:
+    # an integer division per step and clock is not free at this rate
+    c_ctrl = k0 % ctrl_every
+    c_log = k0 % log_every
     k = k0
     for k in range(k0, n_steps):
         t = k * dt
@@ -254,6 +296,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         if not finite:
             status = 2
             break
+        seg_old = seg
         s, e_y, e_psi, _, seg = frenet_project(g, closed, truth[0], truth[1], truth[2], seg)
         s_unw += progress(s, s_prev, length, closed)
         s_prev = s
@@ -265,8 +308,8 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             break
         if s_unw >= s_end:
             break  # the end of the reference path is reached: completed
-        if k % ctrl_every == 0 and not (resume and k == k0):
-            kc = k // ctrl_every
+        if c_ctrl == 0 and not (resume and k == k0):
+            kc = k if ctrl_every == 1 else k // ctrl_every
             sense_step(kc, truth, sens_table, noise, hist, held, meas6)
             for f in range(nan_faults.shape[0]):
                 if nan_faults[f, 1] <= t < nan_faults[f, 2]:
@@ -274,14 +317,23 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             for i in range(6):
                 meas[i] = meas6[i]
             if math.isfinite(meas[0]) and math.isfinite(meas[1]) and math.isfinite(meas[2]):
-                s_m, me_y, me_psi, _, seg_m = frenet_project(g, closed, meas[0], meas[1],
-                                                             meas[2], seg_m)
+                if (meas[0] == truth[0] and meas[1] == truth[1] and meas[2] == truth[2]
+                        and seg_m == seg_old):
+                    # the measured pose is the true one (noise-free, no delay) and the search
+                    # starts from the same segment: the projection above, reused (the same
+                    # computation on the same inputs)
+                    s_m = s
+                    me_y = e_y
+                    me_psi = e_psi
+                    seg_m = seg
+                else:
+                    s_m, me_y, me_psi, _, seg_m = frenet_project(g, closed, meas[0], meas[1],
+                                                                 meas[2], seg_m)
                 s_unw_m += progress(s_m, s_prev_m, length, closed)
                 s_prev_m = s_m
                 if sched_path:
                     # reference time at the measured arc length (path schedule)
-                    sample_flat_reference(st_table, s_unw_m, strow)
-                    t_ref = strow[1]
+                    t_ref, st_row = _time_at(st_table, s_unw_m, st_row)
                 else:
                     t_ref = t
             else:
@@ -297,6 +349,9 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                 break
             tw_cmd, delta_cmd = vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon,
                                              f_lat, f_yaw, meas, crow[1:], tw_app, delta_app)
+        c_ctrl += 1
+        if c_ctrl == ctrl_every:
+            c_ctrl = 0
         tw, delta = actuate_step(tw_cmd, delta_cmd, truth[3], act_p, act_s)
         for f in range(steer_faults.shape[0]):
             if steer_faults[f, 0] <= t < steer_faults[f, 1]:
@@ -313,7 +368,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         u[3] = mu_f
         u[4] = mu_r
         u[5] = mu_r
-        if k % log_every == 0 and n_log < log.shape[0]:
+        if c_log == 0 and n_log < log.shape[0]:
             row = log[n_log]
             row[0] = t
             for i in range(6):
@@ -337,12 +392,15 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                 row[22 + i] = x[_OMEGA_FL + i] if plant == 0 else math.nan
             row[26] = t_ref
             n_log += 1
+        c_log += 1
+        if c_log == log_every:
+            c_log = 0
         if plant == 0:
-            rk4_step_kernel(x, u, dt, mp, tpf, tpr, xn, work, diag)
+            rk4_step_kernel(x, u, dt, mp, tpf, tpr, x, work, diag)  # in place (allowed)
         else:
             rk4_step_into(x, u, dt, bp, 0.0, 0.0, False, xn)
-        for i in range(n):
-            x[i] = xn[i]
+            for i in range(n):
+                x[i] = xn[i]
     else:
         k = n_steps
     ls[_LS_SEG] = seg
@@ -359,9 +417,8 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     ls[_LS_DE_CMD] = delta_cmd
     ls[_LS_ME_Y] = me_y
     ls[_LS_N_LOG] = n_log
+    ls[_LS_ST_ROW] = st_row
     return status, k, n_log
-
-
 
 
 def flying_lap_speed(s: np.ndarray, v_ref: np.ndarray, vehicle: VehicleParams, *,
@@ -611,8 +668,9 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
     controller : PythonController, optional
         A user's controller (Python object with ``step``) replacing ``sc.controller``. The same
         compiled engine runs, pausing at every control step to call it: a few microseconds of
-        Python per call (measured at 1 kHz on the 10DoF: ~110x real time with a controller
-        returning constants, ~65x with one calling a compiled kernel; ~600x without).
+        Python per call (measured at 1 kHz on the 10DoF, 2026-11-22: ~270x real time with a
+        controller returning constants, ~210x with one calling the built-in compiled kernel;
+        ~870x without; benchmarks/README.md "Closed loop").
 
     Returns
     -------
@@ -658,6 +716,7 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
     ctrl = prep.controller
     x = prep.x0.copy()
     ls = np.zeros(_LS_N)
+    scratch = _loop_scratch(x.shape[0])
     meas = np.full(len(MEAS), np.nan)
     crow = np.empty(cref.shape[1])
     applied = np.empty(2)
@@ -678,7 +737,7 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
             ref.path.closed, prep.path_schedule, st_table, s_end,
             sens.table, sens.noise, sens.history, sens.held, act_p, act_s,
             sc.road.mu, patches, nan_f, steer_f, log, timing.log_every, DEFAULT_HALF_WIDTH_M,
-            k0, ls, meas, crow)
+            k0, ls, meas, crow, scratch)
         if code != _PAUSE:
             break
         applied[0] = ls[_LS_TW_APP]

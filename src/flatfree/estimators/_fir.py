@@ -45,6 +45,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from flatfree._vecmath import no_refcount
+
 __all__ = ["STARTUP", "NONFINITE", "fir_new", "fir_reset", "fir_update", "fir_batch"]
 
 STARTUP = {"prefill": 0, "shrink": 1}
@@ -53,6 +55,9 @@ NONFINITE = {"raise": 0, "hold": 1}
 _NTAPS, _FULL, _START, _NONF, _P, _COUNT, _HELD, _OTAB, _OBUF, _TAGI = range(10)
 _W = 10
 _TAG = 20240311.0  # arbitrary constant identifying the layout
+# The streaming kernels allocate nothing and only index the kernel state they are given:
+# compiled without numba's reference counting (flatfree._vecmath.no_refcount).
+_JIT = no_refcount({"cache": True})
 
 
 def _policy(name: str, value: str, table: dict) -> int:
@@ -115,7 +120,7 @@ def check_kernel(ks) -> np.ndarray:
     return ks
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def fir_reset(ks: np.ndarray) -> None:
     """Reset a kernel state in place to "no sample seen" (weights and table are kept)."""
     ks[_P] = 0.0
@@ -125,7 +130,7 @@ def fir_reset(ks: np.ndarray) -> None:
         ks[i] = 0.0
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def _nonfinite(ks):
     """Cold path of the non-finite policy: the held sample, or ValueError."""
     if ks[_NONF] == 1.0 and np.isfinite(ks[_HELD]):
@@ -133,7 +138,7 @@ def _nonfinite(ks):
     raise ValueError("non-finite sample (policy 'raise', or 'hold' with no finite sample yet)")
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def _startup(ks, ntaps, p, count, x):
     """Cold path: fewer samples than ``full``. Returns (estimate, new count)."""
     obuf = int(ks[_OBUF])
@@ -146,28 +151,31 @@ def _startup(ks, ntaps, p, count, x):
     return _dot(ks, off, ks, obuf + p + 1 + ntaps - count, count), count
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def _dot(a, ia, b, ib, m):
     """sum_{j<m} a[ia+j] b[ib+j] with four independent accumulators: a fixed summation order
     (reproducible), yet four add chains in flight."""
+    # contiguous views indexed by j alone: ia + j would cost a negative-index fix-up per load
+    av = a[ia: ia + m]
+    bv = b[ib: ib + m]
     s0 = 0.0
     s1 = 0.0
     s2 = 0.0
     s3 = 0.0
     j = 0
     while j + 4 <= m:
-        s0 += a[ia + j] * b[ib + j]
-        s1 += a[ia + j + 1] * b[ib + j + 1]
-        s2 += a[ia + j + 2] * b[ib + j + 2]
-        s3 += a[ia + j + 3] * b[ib + j + 3]
+        s0 += av[j] * bv[j]
+        s1 += av[j + 1] * bv[j + 1]
+        s2 += av[j + 2] * bv[j + 2]
+        s3 += av[j + 3] * bv[j + 3]
         j += 4
     while j < m:
-        s0 += a[ia + j] * b[ib + j]
+        s0 += av[j] * bv[j]
         j += 1
     return (s0 + s1) + (s2 + s3)
 
 
-@njit(cache=True)
+@njit(**_JIT)
 def fir_update(ks: np.ndarray, x: float) -> float:
     """Push one sample into a kernel state; return the estimate at this sample.
 

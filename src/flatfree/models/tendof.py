@@ -162,7 +162,9 @@ each state's range (``tests/test_tendof_fastpath.py``). With ``tire_lanes=False`
 bit for bit to the model before the lanes existed. The hot kernels (:func:`rhs_kernel`,
 :func:`rk4_step_kernel` and the loop of :func:`simulate_kernel`) are compiled without numba's
 reference counting (they allocate nothing): its per-call atomic increments and decrements of
-every array argument cost ~40 % of the run time.
+every array argument cost ~40 % of the run time. One RK4 step evaluates the steer angles' cos
+and sin once for its four stages (the input is held) and the diagnostic plain slip ratios only
+in its last stage (the one it leaves in ``diag``).
 
 References
 ----------
@@ -370,23 +372,9 @@ _JIT = dict(cache=True, nogil=True, error_model="numpy")
 # decrefs every array argument and view on every call (lock-prefixed atomic operations); its
 # pruning pass cannot remove them across calls that are not inlined (mf_combined, rhs_kernel),
 # and they took ~37 % of the run time (perf, benchmarks/README.md). ``_nrt=False`` compiles a
-# function without numba's runtime (an underscore option, which numba's own string and sort
-# kernels use for the same reason). Should a numba release drop it, the option is left out
-# (checked below without compiling anything): the kernels are then slower but identical.
-
-
-def _no_refcount_jit_options() -> dict:
-    """``_JIT`` plus ``_nrt=False`` when this numba knows the option."""
-    try:
-        from numba.core.cpu import CPUTargetOptions
-
-        known = hasattr(CPUTargetOptions, "_nrt")
-    except ImportError:  # pragma: no cover - a numba without this module layout
-        known = False
-    return dict(_JIT, _nrt=False) if known else dict(_JIT)
-
-
-_JIT_NO_REFCOUNT = _no_refcount_jit_options()
+# function without numba's runtime (flatfree._vecmath.no_refcount: left out, with the same
+# results, should a numba release drop the option).
+_JIT_NO_REFCOUNT = vm.no_refcount(_JIT)
 
 
 # --------------------------------------------------------------------------------------------
@@ -462,6 +450,25 @@ def _smooth_sign(w: float, eps: float) -> float:
 
 
 @njit(**_JIT_NO_REFCOUNT)
+def _steer_trig(u, p):
+    """cos and sin of the left and right road-wheel steer angles ([VM] 1.8): (cl, sl, cr, sr).
+
+    A function of the input alone, so one RK4 step evaluates it once for its four stages.
+    """
+    delta = u[_DELTA]
+    if p[_ACK] != 0.0 and delta != 0.0:
+        wb = p[_L]
+        tf = p[_TF]
+        td = math.tan(delta)
+        d_l = math.atan(wb * td / (wb - 0.5 * tf * td))  # [VM] 1.8 Ackermann, inner = left
+        d_r = math.atan(wb * td / (wb + 0.5 * tf * td))
+        return math.cos(d_l), math.sin(d_l), math.cos(d_r), math.sin(d_r)
+    cl = math.cos(delta)
+    sl = math.sin(delta)
+    return cl, sl, cl, sl
+
+
+@njit(**_JIT_NO_REFCOUNT)
 def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     """Time derivative of the 10DoF state (module docstring), written into ``dx``.
 
@@ -488,6 +495,17 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     ----------
     [VM] sections 1.2-1.9; [P12] 4.3.2 and 7.2.
     """
+    cl, sl, cr_, sr_ = _steer_trig(u, p)
+    _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, True)
+
+
+@njit(**_JIT_NO_REFCOUNT)
+def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
+    """:func:`rhs_kernel` with the steer angles' cos and sin given (:func:`_steer_trig`).
+
+    ``plain_slip = False`` skips the diagnostic plain slip ratio (``diag[:, 5]`` then holds the
+    friction scales): the inner RK4 stages, whose diagnostics the next stage overwrites.
+    """
     vx = x[_VX]
     vy = x[_VY]
     r = x[_R]
@@ -500,7 +518,6 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     axf = x[_AXF]
     ayf = x[_AYF]
     tw = u[_TW]
-    delta = u[_DELTA]
 
     m = p[_M]
     ms = p[_MS]
@@ -520,20 +537,7 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     lift_f = p[_LIFTF] * v2
     lift_r = p[_LIFTR] * v2
 
-    # ---- steering ([VM] 1.8) ----
-    if p[_ACK] != 0.0 and delta != 0.0:
-        td = math.tan(delta)
-        d_l = math.atan(wb * td / (wb - 0.5 * tf * td))  # [VM] 1.8 Ackermann, inner = left
-        d_r = math.atan(wb * td / (wb + 0.5 * tf * td))
-        cl = math.cos(d_l)
-        sl = math.sin(d_l)
-        cr_ = math.cos(d_r)
-        sr_ = math.sin(d_r)
-    else:
-        cl = math.cos(delta)
-        sl = math.sin(delta)
-        cr_ = cl
-        sr_ = sl
+    # ---- steering ([VM] 1.8): cl, sl, cr_, sr_ from _steer_trig ----
 
     # ---- torques ([VM] 1.7) ----
     if tw >= 0.0:
@@ -705,9 +709,10 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
             tq -= tbrake * _smooth_sign(om, eps_b)
         dx[_OM + w] = tq / iw
 
-        # plain slip ratio (diagnostics): the contact-point speed of pass 1, recomputed
-        vxw = (vx - r * yj) * cd + (vy + r * xi) * sd
-        diag[w, 5] = (om * re - vxw) / max(abs(vxw), p[_VMIN])
+        if plain_slip:
+            # plain slip ratio (diagnostics): the contact-point speed of pass 1, recomputed
+            vxw = (vx - r * yj) * cd + (vy + r * xi) * sd
+            diag[w, 5] = (om * re - vxw) / max(abs(vxw), p[_VMIN])
 
     # ---- planar motion ([VM] 1.3) ----
     ax = (sum_fx - fd) / m  # body-frame CoG acceleration
@@ -754,17 +759,20 @@ def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     k3 = work[2]
     k4 = work[3]
     xt = work[4]
-    rhs_kernel(x, u, p, tpf, tpr, k1, diag)
+    # the input is held over the step: the steer's cos and sin once, not once per stage; the
+    # diagnostic plain slip ratios only in the last stage (the one left in diag)
+    cl, sl, cr_, sr_ = _steer_trig(u, p)
+    _rhs_steered(x, u, p, tpf, tpr, k1, diag, cl, sl, cr_, sr_, False)
     h2 = 0.5 * dt
     for i in range(n):
         xt[i] = x[i] + h2 * k1[i]
-    rhs_kernel(xt, u, p, tpf, tpr, k2, diag)
+    _rhs_steered(xt, u, p, tpf, tpr, k2, diag, cl, sl, cr_, sr_, False)
     for i in range(n):
         xt[i] = x[i] + h2 * k2[i]
-    rhs_kernel(xt, u, p, tpf, tpr, k3, diag)
+    _rhs_steered(xt, u, p, tpf, tpr, k3, diag, cl, sl, cr_, sr_, False)
     for i in range(n):
         xt[i] = x[i] + dt * k3[i]
-    rhs_kernel(xt, u, p, tpf, tpr, k4, diag)
+    _rhs_steered(xt, u, p, tpf, tpr, k4, diag, cl, sl, cr_, sr_, True)
     h6 = dt / 6.0
     for i in range(n):
         out[i] = x[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])

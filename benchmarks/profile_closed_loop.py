@@ -1,0 +1,162 @@
+"""Where the closed loop's time goes: each part of a lap timed alone on the lap's own data.
+
+Run as a script (``python benchmarks/profile_closed_loop.py [scenario] [track]``, default
+``paper``, the default track); it prints the figures of benchmarks/README.md "Closed loop"
+(breakdown). Nothing here is a test.
+
+1. The whole lap in the compiled loop (:func:`flatfree.simulation.simulate`): ns per plant step.
+2. The lap again through the Python door with the built-in controller's own kernel
+   (:func:`flatfree.controllers.vehicle.vehicle_step`; bit for bit the same trajectory, checked),
+   logging every plant step and recording the controller's inputs at every control step.
+3. On those recordings, each part alone in a compiled loop:
+
+   - the plant: RK4 steps of the 10DoF model driven by the applied inputs of the lap, from the
+     same initial state (:func:`flatfree.models.tendof.simulate_kernel`; it retraces the lap's
+     states, checked);
+   - the Frenet projection of the true poses (:func:`flatfree.tracks.project_points`; the loop
+     projects the true pose at every plant step and, when it differs, the measured one);
+   - the controller: :func:`~flatfree.controllers.vehicle.vehicle_step` on the recorded
+     measurements, references and applied inputs (fresh controller state).
+
+The parts do not add up to the whole: the loop is one dependency chain per step (plant ->
+projection -> controller -> actuators -> plant), and the processor overlaps the work that is
+off that chain (logging, the wheel diagnostics, the second projection's bookkeeping) with it.
+"The rest" below is the whole minus the three parts.
+
+The machine has 2 cores shared with other jobs: timings are noisy; the best of several
+repeats is reported.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import platform
+import sys
+import time
+
+import numpy as np
+from numba import njit
+
+from flatfree._timing import best_time
+from flatfree.controllers.vehicle import vehicle_step
+from flatfree.models.tendof import simulate_kernel
+from flatfree.scenario import Timing
+from flatfree.scenarios import named_scenario
+from flatfree.simulation import prepare, simulate
+from flatfree.tracks import frenet_init, project_points
+
+
+class _Recorder:
+    """Python controller running the built-in kernel and recording its inputs."""
+
+    def __init__(self, sc, n: int):
+        self.prep = prepare(sc)
+        self.c = self.prep.controller
+        self.meas = np.empty((n, 8))
+        self.cref = np.empty((n, self.prep.cref.shape[1] - 1))
+        self.applied = np.empty((n, 2))
+        self.i = 0
+
+    def reset(self):
+        self.c.reset()
+
+    def step(self, t, measurement, reference, applied):
+        i = self.i
+        self.meas[i] = measurement
+        self.cref[i] = reference
+        self.applied[i] = applied
+        self.i += 1
+        c = self.c
+        return vehicle_step(c.kind, c.p_lon, c.s_lon, c.p_lat, c.s_lat, c.coef, c.f_lon, c.f_lat,
+                            c.f_yaw, measurement, reference, applied[0], applied[1])
+
+
+@njit(cache=True)
+def _controller_only(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, meas, cref,
+                     applied):
+    acc = 0.0
+    for k in range(meas.shape[0]):
+        tw, de = vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw,
+                              meas[k], cref[k], applied[k, 0], applied[k, 1])
+        acc += tw + de
+    return acc
+
+
+def main() -> None:
+    name = sys.argv[1] if len(sys.argv) > 1 else "paper"
+    track = sys.argv[2] if len(sys.argv) > 2 else None
+    sc = named_scenario(name) if track is None else named_scenario(name, track=track)
+    if sc.plant != "10dof" or sc.timing.control_every != 1:
+        raise SystemExit("this profile assumes the 10DoF plant and control at the plant rate")
+    print(f"machine: {platform.processor() or platform.machine()}, python "
+          f"{platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    simulate(sc.with_(timing=Timing(duration_s=1.0)))  # JIT warm-up
+    runs = [simulate(sc) for _ in range(5)]
+    tr = max(runs, key=lambda r: r.meta["real_time_factor"])
+    dt = sc.timing.plant_dt_s
+    whole = dt / tr.meta["real_time_factor"]  # the factor counts the steps the loop ran
+    print(f"{name} on {sc.reference.track}: {tr.status.value} after {tr.duration:.1f} s")
+    print(f"  whole loop (best of 5)            {whole * 1e9:7.1f} ns/step "
+          f"({tr.meta['real_time_factor']:.0f}x real time)")
+
+    # the same lap through the Python door, logged at every plant step
+    # (the same timing but the log: the run's length fixes the sensor noise drawn in advance)
+    fine = sc.with_(timing=dataclasses.replace(sc.timing, log_dt_s=dt))
+    rec = _Recorder(fine, prepare(fine).n_steps + 1)
+    tr_py = simulate(fine, controller=rec)
+    m = rec.i
+    every = sc.timing.log_every
+    k_log = min(len(tr), len(tr_py["x"][::every]))
+    same = np.array_equal(tr_py["x"][::every][:k_log], tr["x"][:k_log])
+    print(f"  (recorded {m} control steps through the Python door; same trajectory: {same})")
+
+    # 1) the plant alone, driven by the applied inputs
+    prep = rec.prep
+    from flatfree.models.tendof import TenDoF
+
+    model = TenDoF(prep.vehicle)
+    tpf = prep.vehicle.tire_front.to_array()
+    tpr = prep.vehicle.tire_rear.to_array()
+    steps = len(tr_py) - 1
+    us = np.empty((steps, 6))
+    us[:, 0] = tr_py["torque"][:steps]
+    us[:, 1] = tr_py["steer"][:steps]
+    us[:, 2:] = sc.road.mu if not sc.road.patches else np.nan
+    if sc.road.patches:
+        raise SystemExit("friction patches: not supported by this profile")
+    xs = np.empty((steps + 1, prep.x0.size))
+    t_plant = best_time(simulate_kernel, prep.x0, us, dt, model.params, tpf, tpr, xs) / steps
+    retraced = np.array_equal(xs[1:, 0], tr_py["x"][1:steps + 1])
+    print(f"  plant alone (10DoF RK4)            {t_plant * 1e9:7.1f} ns/step "
+          f"(retraces the lap: {retraced})")
+
+    # 2) the Frenet projection of the true poses
+    g = prep.reference.path.geometry
+    closed = prep.reference.path.closed
+    px = np.ascontiguousarray(tr_py["x"])
+    py = np.ascontiguousarray(tr_py["y"])
+    ps = np.ascontiguousarray(tr_py["psi"])
+    seg0 = frenet_init(g, closed, px[0], py[0], ps[0])
+    t_proj = best_time(project_points, g, closed, px, py, ps, seg0) / len(px)
+    print(f"  one Frenet projection              {t_proj * 1e9:7.1f} ns/step "
+          f"(the loop projects the true and, when different, the measured pose)")
+
+    # 3) the controller alone on its recorded inputs (fresh state each repeat; the first
+    # repeat compiles)
+    best = math.inf
+    for _ in range(6):
+        c = prepare(fine).controller
+        t0 = time.perf_counter()
+        _controller_only(c.kind, c.p_lon, c.s_lon, c.p_lat, c.s_lat, c.coef, c.f_lon, c.f_lat,
+                         c.f_yaw, rec.meas[:m], rec.cref[:m], rec.applied[:m])
+        best = min(best, time.perf_counter() - t0)
+    t_ctrl = best / m
+    print(f"  controller alone (vehicle_step)    {t_ctrl * 1e9:7.1f} ns/step")
+    rest = whole - t_plant - t_proj - t_ctrl
+    print(f"  the rest (whole - the three)       {rest * 1e9:7.1f} ns/step (sensors, second "
+          "projection, references, actuators, logging, loop; minus overlap)")
+
+
+if __name__ == "__main__":
+    main()
