@@ -5,6 +5,7 @@ Run as a script::
     python benchmarks/sweep_seeds.py                 # 10 seeds, every track, `paper`
     python benchmarks/sweep_seeds.py --seeds 3 --tracks Norisring,Spa
     python benchmarks/sweep_seeds.py --vehicle dallara_av21 --set alpha_lat=60 --tracks LVMS
+    python benchmarks/sweep_seeds.py --drive-limit      # the power-aware speed profile
 
 It prints, per track, the range of the max lateral error (after the 1 s start-up, whole laps)
 over the seeds that completed, which seeds left the track and when, the worst max yaw error,
@@ -17,6 +18,7 @@ about a minute on one core.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 from flatfree.metrics import compute_metrics
@@ -36,8 +38,11 @@ def _value(text: str) -> float | int | str | bool:
     return text
 
 
-def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict):
+def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict,
+         drive_limit: bool):
     sc = named_scenario(name, track=track, seed=seed)
+    if drive_limit:
+        sc = sc.with_(reference=dataclasses.replace(sc.reference, drive_limit=True))
     if vehicle:
         sc = sc.with_(vehicle=vehicle)
     if settings:
@@ -53,6 +58,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--tracks", default=",".join(track_names()),
                     help="comma-separated bundled tracks (default: all)")
     ap.add_argument("--vehicle", default=None, help="replace the scenario's vehicle preset")
+    ap.add_argument("--drive-limit", action="store_true",
+                    help="plan the speed profile within the car's drive limit (reference.drive_limit)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="controller setting override (repeatable)")
     args = ap.parse_args(argv)
@@ -64,24 +71,26 @@ def main(argv: list[str] | None = None) -> None:
         settings[key] = _value(val)
     base = args.scenario.removesuffix("-noise-free")
     print(f"scenario {base}, seeds 0-{args.seeds - 1}, vehicle {args.vehicle or 'default'}, "
-          f"settings {settings or 'default'}")
+          f"settings {settings or 'default'}, drive limit {args.drive_limit}")
     t0 = time.perf_counter()
     for track in args.tracks.split(","):
-        maxima, left, yaw = [], [], 0.0
+        maxima, left, yaw, speed = [], [], 0.0, 0.0
         for seed in range(args.seeds):
-            tr, m = _run(base, track, seed, args.vehicle, settings)
+            tr, m = _run(base, track, seed, args.vehicle, settings, args.drive_limit)
             if m.status == "completed":
                 maxima.append(m.lateral_error_max_m)
                 yaw = max(yaw, m.yaw_error_max_deg)
+                speed = max(speed, m.speed_error_rms_mps)
             else:
                 left.append(f"{seed} ({m.status} at {tr.status_time:.1f} s)")
-        _, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings)
+        _, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings,
+                        args.drive_limit)
         span = (f"{100 * min(maxima):.2f}-{100 * max(maxima):.2f} cm" if maxima
                 else "none completed")
         clean_txt = (f"{100 * clean.lateral_error_max_m:.2f} cm"
                      if clean.status == "completed" else clean.status)
         print(f"{track:10s} max lateral {span:16s} completed {len(maxima)}/{args.seeds}  "
-              f"max yaw {yaw:.2f} deg  noise-free {clean_txt}"
+              f"max yaw {yaw:.2f} deg  speed RMS <= {speed:.2f} m/s  noise-free {clean_txt}"
               + (f"  left: {', '.join(left)}" if left else ""), flush=True)
     print(f"wall time {time.perf_counter() - t0:.0f} s")
 

@@ -362,3 +362,26 @@ def test_reference_tables_at_10_ms_interpolate_like_1_ms_tables(track):
     assert err("kappa").max() < 4e-6
     assert err("vx").max() < 5e-4 * np.ptp(fine["vx"])
     assert np.sqrt(np.mean(err("ax") ** 2)) < 0.011 * np.ptp(fine["ax"])
+
+
+def test_drive_limit_plans_the_reference_the_car_can_drive():
+    """reference.drive_limit: the run's reference is the power-aware profile of the scenario's
+    car (tracks.speed_profile(vehicle=...)); off (default): the friction-only profile."""
+    import dataclasses
+
+    from flatfree.simulation import prepare
+    from flatfree.tracks import load_track, speed_profile
+
+    sc = _scenario(timing=Timing(duration_s=1.0, log_dt_s=0.01))
+    on = sc.with_(reference=dataclasses.replace(sc.reference, drive_limit=True))
+    v_on = prepare(on).reference["vx"]
+    v_off = prepare(sc).reference["vx"]
+    trk = load_track("Norisring")
+    lim = dataclasses.replace(speed_profile(trk).limits, a_lat_max=3.0)  # _scenario's profile
+    top_on = speed_profile(trk, lim, vehicle=prepare(on).vehicle).v.max()
+    top_off = speed_profile(trk, lim).v.max()
+    # the 10 ms time grid samples the profile: its maximum is at most the profile's top speed
+    # and misses it by less than one sample at the largest deceleration (6 m/s^2 x 10 ms)
+    for v, top in ((v_on, top_on), (v_off, top_off)):
+        assert top - 0.06 < v.max() <= top + 1e-9
+    assert top_on < top_off - 5.0  # the peugeot406 cannot reach the friction profile's

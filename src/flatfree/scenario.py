@@ -27,6 +27,7 @@ TOML layout (every key optional except where a section says so; units in the key
     a_brake_max = 6.0
     v_max = 50.0
     mu = 1.0
+    drive_limit = false             # true: also within the car's drive limit (power, torque)
 
     [controller_settings]           # the chosen controller's own settings (checked by it)
 
@@ -121,6 +122,12 @@ class ReferenceSpec:
     a_brake_max: float = 6.0  # [m/s^2]
     v_max: float = 50.0  # [m/s]
     mu: float = 1.0  # [-] friction the speed profile plans with
+    #: plan the speed profile within the vehicle's drive limit too (torque, power, drag, rolling
+    #: resistance; tracks.speed_profile(vehicle=...)). Default false: the friction ellipse only
+    #: (the issue's "default speed profile"), which asks a low-powered car for speeds it cannot
+    #: reach on the straights (peugeot406: speed error RMS ~2.3 m/s, 0.1-0.4 m/s with the limit;
+    #: benchmarks/README.md "Closed loop")
+    drive_limit: bool = False
 
     def __post_init__(self) -> None:
         if (self.track is None) == (self.recording is None):
@@ -132,6 +139,9 @@ class ReferenceSpec:
         finite("reference.lateral_offset_m", self.lateral_offset_m, "m")
         if int(self.laps) != self.laps or self.laps < 1:
             raise ValueError(f"reference.laps = {self.laps!r}: must be an integer >= 1")
+        if not isinstance(self.drive_limit, bool):
+            raise ValueError(f"reference.drive_limit = {self.drive_limit!r}: must be true or "
+                             "false")
         for k, u in (("a_lat_max", "m/s^2"), ("a_drive_max", "m/s^2"),
                      ("a_brake_max", "m/s^2"), ("v_max", "m/s"), ("mu", "-")):
             positive(f"reference.{k}", getattr(self, k), u)

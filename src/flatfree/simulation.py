@@ -517,7 +517,7 @@ def _ref_dt(sc: Scenario) -> float:
     return max(REFERENCE_DT_S, sc.timing.plant_dt_s)
 
 
-def _reference(sc: Scenario) -> Reference:
+def _reference(sc: Scenario, vehicle: VehicleParams) -> Reference:
     spec = sc.reference
     if spec.recording is not None:
         from flatfree.tracks import load_recording
@@ -527,8 +527,10 @@ def _reference(sc: Scenario) -> Reference:
     track = load_track(spec.track, raceline=spec.line == "raceline")
     limits = SpeedLimits(a_lat_max=spec.a_lat_max, a_drive_max=spec.a_drive_max,
                          a_brake_max=spec.a_brake_max, v_max=spec.v_max, mu=spec.mu)
+    # drive_limit: the profile also within the car's drive limit (tracks.speed_profile)
     return make_reference(track, limits, dt=_ref_dt(sc),
-                          lateral_offset=spec.lateral_offset_m, laps=spec.laps)
+                          lateral_offset=spec.lateral_offset_m, laps=spec.laps,
+                          vehicle=vehicle if spec.drive_limit else None)
 
 
 def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepared:
@@ -538,7 +540,7 @@ def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepare
     placeholder and the schedule is the object's ``schedule`` attribute (default ``"path"``).
     """
     vehicle = load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides))
-    ref = _reference(sc)
+    ref = _reference(sc, vehicle)
     bic = Bicycle3DoFParams.from_vehicle(vehicle)
     lat = reference_states_3dof(ref, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
                                 lf=bic.lf, lr=bic.lr)

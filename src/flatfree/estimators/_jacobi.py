@@ -48,7 +48,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.polynomial import legendre as _leg
-from scipy.optimize import brentq
 from scipy.special import gammaln
 
 from flatfree.estimators._fweights import _check_dt, _check_int
@@ -336,6 +335,8 @@ def cutoff(design: JacobiDesign) -> float:
     discrete frequency response. ``math.inf`` when the response stays above -3 dB up to
     the Nyquist frequency.
     """
+    from scipy.optimize import brentq  # late: scipy.optimize costs ~35 MB to import
+
     nyq = 0.5 / design.dt
     target = 1.0 / math.sqrt(2.0)
     # cutoff ~ 1/T; scan from well below, on a grid fine enough to never skip the first crossing

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from flatfree.tracks import _io
 from flatfree.tracks.geometry import DEFAULT_DS, DEFAULT_SMOOTHING_LENGTH, Track
@@ -98,6 +97,8 @@ def lvms_centerline() -> TrackPoints:
             x, y = x[:-1], y[:-1]
         pts.append(np.column_stack([x, y]))
     inner, outer = pts
+    from scipy.spatial import cKDTree  # late: only the LVMS centerline needs it
+
     tree = cKDTree(outer)
     _, k = tree.query(inner)
     n = outer.shape[0]

@@ -27,7 +27,6 @@ from pathlib import Path
 import numba
 import numpy as np
 from scipy.interpolate import CubicSpline
-from scipy.signal import savgol_filter
 
 from flatfree._validate import positive
 from flatfree.tracks import _io
@@ -223,6 +222,8 @@ class Recording:
         Returns ``x, y, vx`` smoothed, ``ax`` = d vx/dt and ``v_xy`` = |d(x, y)/dt| from the
         same filter.
         """
+        from scipy.signal import savgol_filter  # late: scipy.signal costs ~60 MB to import
+
         w = self._window(window)
         h = self.sample_time
         out = {}
