@@ -276,6 +276,22 @@ def test_named_scenario_and_option_override(runner):
     assert doc["noise"] is False and doc["vehicle"] == "peugeot406"
 
 
+def test_vehicle_option_takes_the_cars_natural_settings():
+    """--vehicle swaps the base scenario's car tuning (alpha_lat) for the new car's, unless the
+    settings were changed; other controllers' settings are left alone."""
+    from flatfree.cli import build_scenario
+    from flatfree.scenarios import DALLARA_NATURAL_SETTINGS, NATURAL_SETTINGS
+
+    assert build_scenario(track="LVMS", vehicle="dallara_av21").controller_settings == \
+        DALLARA_NATURAL_SETTINGS
+    assert build_scenario(recording="LVMS_23_01_04_B",
+                          vehicle="peugeot406").controller_settings == NATURAL_SETTINGS
+    assert build_scenario(recording="LVMS_23_01_04_B").controller_settings == \
+        DALLARA_NATURAL_SETTINGS
+    flat = build_scenario("paper-flatness", vehicle="dallara_av21", cf_scale=0.5)
+    assert flat.controller_settings == {"cf_scale": 0.5}
+
+
 # ------------------------------------------------------------------------------------------
 # demo
 # ------------------------------------------------------------------------------------------

@@ -69,6 +69,7 @@ __all__ = [
     "REALISTIC_SENSORS",
     "NATURAL_SETTINGS",
     "DALLARA_NATURAL_SETTINGS",
+    "natural_settings",
     "SCENARIO_NAMES",
     "named_scenario",
     "paper_scenarios",
@@ -111,6 +112,15 @@ NATURAL_SETTINGS: dict[str, float | int | str] = {}
 #: track for seeds 0-2 and 60 completed them (1.8-2.1 cm). 60 keeps the peugeot's alpha / (C_f / m)
 #: ratio within 1.4x and is the smallest value measured without the limit cycle.
 DALLARA_NATURAL_SETTINGS: dict[str, float | int | str] = {**NATURAL_SETTINGS, "alpha_lat": 60.0}
+
+
+def natural_settings(vehicle: str) -> dict[str, float | int | str]:
+    """The natural-output controller's settings tuned for a bundled preset (a copy):
+    :data:`DALLARA_NATURAL_SETTINGS` for ``dallara_av21``, :data:`NATURAL_SETTINGS` (the
+    peugeot406's, measured) for any other car. alpha_lat is the setting tied to the car."""
+    if vehicle == "dallara_av21":
+        return dict(DALLARA_NATURAL_SETTINGS)
+    return dict(NATURAL_SETTINGS)
 
 _BASE = {
     "paper": ("mfc-natural", {}),
@@ -157,7 +167,7 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         return Scenario(
             name=name, description="dallara_av21 on the LVMS recording (paper Figure 6)",
             vehicle="dallara_av21", plant="10dof", controller="mfc-natural",
-            controller_settings=dict(DALLARA_NATURAL_SETTINGS),
+            controller_settings=natural_settings("dallara_av21"),
             reference=ReferenceSpec(track=None, recording=RECORDING), timing=timing,
             sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
     controller, settings = _BASE[base]
