@@ -427,7 +427,10 @@ def mf_combined(kappa: float, alpha: float, fz: float, mu_scale: float, tp: np.n
 # cos and exp differ from libm, by less than 2 ulp (flatfree._vecmath), so the forces agree to
 # round-off (tests/test_tendof_fastpath.py: |difference| < 1e-12 mu F_z, measured 7e-16).
 # forceinline: a call inside the lane loop would stop its vectorisation.
-_JIT_LANE = dict(cache=True, nogil=True, error_model="numpy", forceinline=True)
+# fastmath "contract": fused multiply-adds in the lanes (rounding-level differences from
+# mf_combined, which stays without them; the force tolerance of tests/test_tendof_fastpath.py).
+_JIT_LANE = dict(cache=True, nogil=True, error_model="numpy", forceinline=True,
+                 fastmath={"contract"})
 
 
 @njit(**_JIT_LANE)
@@ -437,7 +440,7 @@ def _weight_v(bx: float, c: float, e: float) -> float:
 
 
 @njit(**_JIT_LANE)
-def _mf_combined_lane(kappa, alpha, fz_in, mu_scale, ta, tb, use_a, general):
+def _mf_combined_lane(kappa, alpha, fz_in, mu_scale, ta, tb, use_a, general, g_plain=False):
     """One lane of :func:`mf_combined4`: :func:`mf_combined` without branches.
 
     ``ta``, ``tb`` are the two tyres' coefficient arrays as tuples (``_vecmath.as_tuple``) and
@@ -447,6 +450,12 @@ def _mf_combined_lane(kappa, alpha, fz_in, mu_scale, ta, tb, use_a, general):
     ``general=True`` evaluates them and selects per lane, as ``mf_combined`` branches. The four
     Magic Formula curves (F_x0, F_y0, G_xalpha, G_ykappa) are evaluated step by step side by
     side, so that the processor overlaps their four dependency chains.
+
+    ``g_plain=True`` (with ``general=False``; checked by the caller with :func:`_lanes_g_plain`)
+    is for tyres whose weighting curvature factors ``r_Ex1, r_Ex2, r_Ey1, r_Ey2`` are all 0:
+    then ``E_xalpha = E_ykappa = 0`` exactly, the second arc tangent of each weighting curve,
+    ``atan(B x - 0 (B x - atan(B x)))``, is the first one, and it is not evaluated again (the
+    same forces bit for bit, two arc tangents fewer per lane).
 
     A loop over 4 lanes that calls this (``forceinline``) vectorises when it touches no memory
     but one array at a known stride (:func:`_mf_lanes_loop`): with other arrays LLVM would need
@@ -524,8 +533,9 @@ def _mf_combined_lane(kappa, alpha, fz_in, mu_scale, ta, tb, use_a, general):
     a_gy = vm.atan(s_gy)
     a_x = vm.atan(s_x - e_x * (s_x - a_x))  # _mf_phi
     a_y = vm.atan(s_y - e_y * (s_y - a_y))
-    a_gx = vm.atan(s_gx - exa * (s_gx - a_gx))
-    a_gy = vm.atan(s_gy - eyk * (s_gy - a_gy))
+    if not g_plain:
+        a_gx = vm.atan(s_gx - exa * (s_gx - a_gx))
+        a_gy = vm.atan(s_gy - eyk * (s_gy - a_gy))
     fx_0 = d_x * vm.sin(c_x * a_x) + sv_x  # 4.E9
     fy_0 = d_y * vm.sin(c_y * a_y) + sv_y  # 4.E19
     gxa = vm.cos(cxa * a_gx)  # 4.E51
@@ -560,6 +570,15 @@ def _lanes_general(ta, tb) -> bool:
 
 
 @njit(**_JIT_LANE)
+def _lanes_g_plain(ta, tb) -> bool:
+    """True when both tyres have ``r_Ex1 = r_Ex2 = r_Ey1 = r_Ey2 = 0`` (the 205/60R15 set of
+    the peugeot406): the weighting curves' ``E`` vanish (:func:`_mf_combined_lane`)."""
+    return (ta[_REX1] == 0.0 and ta[_REX2] == 0.0 and ta[_REY1] == 0.0 and ta[_REY2] == 0.0
+            and tb[_REX1] == 0.0 and tb[_REX2] == 0.0 and tb[_REY1] == 0.0
+            and tb[_REY2] == 0.0)
+
+
+@njit(**_JIT_LANE)
 def _mf_lanes_loop(lanes, ta, tb) -> None:
     """The loop of :func:`mf_combined4` over ``lanes`` (float64[4, 6]).
 
@@ -572,6 +591,12 @@ def _mf_lanes_loop(lanes, ta, tb) -> None:
         for i in range(4):
             fx, fy = _mf_combined_lane(lanes[i, 4], lanes[i, 3], lanes[i, 0], lanes[i, 5], ta,
                                        tb, i < 2, True)
+            lanes[i, 1] = fx
+            lanes[i, 2] = fy
+    elif _lanes_g_plain(ta, tb):
+        for i in range(4):
+            fx, fy = _mf_combined_lane(lanes[i, 4], lanes[i, 3], lanes[i, 0], lanes[i, 5], ta,
+                                       tb, i < 2, False, True)
             lanes[i, 1] = fx
             lanes[i, 2] = fy
     else:

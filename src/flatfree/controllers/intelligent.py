@@ -159,7 +159,9 @@ class IPAR(enum.IntEnum):
 
     After the header come four weight blocks of ``L`` entries each, ``L = IPAR.L`` (the buffer
     length, ``max(window, derivative_window)``), zero-padded: ``wy`` (F, on ``y[k-i]``), ``wu``
-    (F, on ``u[k-1-i]``), ``wdy`` and ``wdu`` (``y'_hat``, same pattern; nu = 2 only).
+    (F, on ``u[k-1-i]``), ``wdy`` and ``wdu`` (``y'_hat``, same pattern; nu = 2 only); then the
+    constants of the sliding-moment form (``MOMENT_BLOCK`` entries, "Sliding moments" in
+    :func:`intelligent_step`).
     """
 
     NU = 0  # order of the ultra-local model, 1 or 2
@@ -174,15 +176,18 @@ class IPAR(enum.IntEnum):
     U0 = 9  # u-unit, held before the window is full
     AW = 10  # ANTI_WINDUP_CODES
     L = 11  # buffer length, samples
+    MOM = 12  # 1: the sums by sliding moments (weights polynomial in the lag), 0: plain sums
+    REFRESH = 13  # samples between exact recomputations of the moments
 
 
 _HP = len(IPAR)
 
 
 class IST(enum.IntEnum):
-    """Header of the state array (:func:`make_state`); then two ring buffers of ``2 L`` entries
-    (measurements ``y`` and applied inputs ``u``, each sample written twice so that the last
-    ``L`` are contiguous, newest first)."""
+    """Header of the state array (:func:`make_state`; ``MY`` and ``MU`` start blocks of
+    ``MOMENT_DEGREE + 1`` entries, so the header is 25 long); then two ring buffers of ``2 L``
+    entries (measurements ``y`` and applied inputs ``u``, each sample written twice so that the
+    last ``L`` are contiguous, newest first)."""
 
     K = 0  # samples stored in the window so far
     HEAD = 1  # ring position of the newest sample
@@ -197,16 +202,35 @@ class IST(enum.IntEnum):
     SAT = 10  # -1 / 0 / +1: output at u_min / inside / at u_max after the last step
     RATE = 11  # -1 / 0 / +1: rate limit active (falling / no / rising)
     Y_LAST = 12  # newest value in the y window
+    M_VALID = 13  # 1 when the moments below describe the current (full) window
+    M_SINCE = 14  # samples since their last exact recomputation
+    MY = 15  # moments of the y window, MOMENT_DEGREE + 1 entries (15-19)
+    MU = 20  # moments of the u window (20-24)
 
 
-_HS = len(IST)
+#: Degree of the polynomial weights the sliding-moment form represents (``f_estimator_weights``
+#: and ``model_derivative_weights`` are of degree 1-4 in the lag).
+MOMENT_DEGREE = 4
+_ND = MOMENT_DEGREE + 1
+#: Entries of the moment block of the parameter array: the shift matrix (ND x ND), the powers
+#: of the entering and leaving abscissae (3 ND) and the four weight blocks' coefficients (4 ND).
+MOMENT_BLOCK = _ND * _ND + 7 * _ND
+#: Smallest buffer length for which the moment form is used (below, the plain sums are as fast).
+MOMENT_MIN_LENGTH = 16
+_HS = int(IST.MU) + _ND  # the header's length (the moments take ND entries each)
+assert _ND == 5  # _slide_moments is written out for degree 4
 
 # plain ints for the compiled code (numba folds module-level ints into constants)
 _NU, _ALPHA, _KP, _KI, _KD, _DT = 0, 1, 2, 3, 4, 5
-_UMIN, _UMAX, _RATE, _U0, _AW, _L = 6, 7, 8, 9, 10, 11
+_UMIN, _UMAX, _RATE, _U0, _AW, _L, _MOM, _REFRESH = 6, 7, 8, 9, 10, 11, 12, 13
 _K, _HEAD, _NNF, _NF, _U, _INT, _FH, _E, _ED, _YD, _SAT, _RL, _YL = range(13)
-assert [m.value for m in IPAR] == list(range(12)) and _HP == 12
-assert [m.value for m in IST] == list(range(13)) and _HS == 13
+_MVALID, _MSINCE, _MY, _MU = 13, 14, 15, 20
+assert [m.value for m in IPAR] == list(range(14)) and _HP == 14
+assert [m.value for m in IST] == list(range(13)) + [13, 14, 15, 20] and _HS == 25
+# offsets inside the moment block: shift matrix, x_0^m, x_L^m (y), x_(L-1)^m (u), coefficients
+_MB_B, _MB_ADD, _MB_DY, _MB_DU = 0, _ND * _ND, _ND * _ND + _ND, _ND * _ND + 2 * _ND
+_MB_CY, _MB_CU, _MB_CDY, _MB_CDU = (_ND * _ND + 3 * _ND, _ND * _ND + 4 * _ND,
+                                    _ND * _ND + 5 * _ND, _ND * _ND + 6 * _ND)
 
 
 # --------------------------------------------------------------------------------------------
@@ -269,11 +293,84 @@ def intelligent_reset(p: np.ndarray, s: np.ndarray) -> None:
     p : ndarray
         Parameter array from :meth:`IntelligentParams.to_array`.
     s : ndarray
-        State array of length ``len(IST) + 4 L`` (:func:`make_state`).
+        State array of length ``25 + 4 L`` (the IST header, then the rings; :func:`make_state`).
     """
     s[:] = 0.0
     u0 = min(max(p[_U0], p[_UMIN]), p[_UMAX])
     s[_U] = u0
+
+
+@numba.njit(**_JIT_STEP)
+def _slide_moments(p, s, y_new, y_old, u_new, u_old, L):
+    """Move the window moments by one sample ("Sliding moments" in :func:`intelligent_step`).
+
+    ``M_m <- sum_n C(m, n) h^(m-n) M_n + x_0^m v_new - x_drop^m v_old`` for both windows
+    (``C(m, m) h^0 = 1``), written out for ``MOMENT_DEGREE = 4`` with the moments in locals.
+    """
+    mb = _HP + 4 * L
+    b = p[mb + _MB_B: mb + _MB_B + _ND * _ND]  # row m: C(m, n) h^(m-n), n <= m
+    a = p[mb + _MB_ADD: mb + _MB_ADD + _ND]
+    dy = p[mb + _MB_DY: mb + _MB_DY + _ND]
+    du = p[mb + _MB_DU: mb + _MB_DU + _ND]
+    y0, y1, y2, y3, y4 = s[_MY], s[_MY + 1], s[_MY + 2], s[_MY + 3], s[_MY + 4]
+    u0, u1, u2, u3, u4 = s[_MU], s[_MU + 1], s[_MU + 2], s[_MU + 3], s[_MU + 4]
+    s[_MY] = y0 + a[0] * y_new - dy[0] * y_old
+    s[_MU] = u0 + a[0] * u_new - du[0] * u_old
+    s[_MY + 1] = (y1 + b[5] * y0) + a[1] * y_new - dy[1] * y_old
+    s[_MU + 1] = (u1 + b[5] * u0) + a[1] * u_new - du[1] * u_old
+    s[_MY + 2] = (y2 + b[11] * y1 + b[10] * y0) + a[2] * y_new - dy[2] * y_old
+    s[_MU + 2] = (u2 + b[11] * u1 + b[10] * u0) + a[2] * u_new - du[2] * u_old
+    s[_MY + 3] = ((y3 + b[17] * y2) + (b[16] * y1 + b[15] * y0)) + a[3] * y_new - dy[3] * y_old
+    s[_MU + 3] = ((u3 + b[17] * u2) + (b[16] * u1 + b[15] * u0)) + a[3] * u_new - du[3] * u_old
+    s[_MY + 4] = (((y4 + b[23] * y3) + (b[22] * y2 + b[21] * y1)) + b[20] * y0
+                  + a[4] * y_new - dy[4] * y_old)
+    s[_MU + 4] = (((u4 + b[23] * u3) + (b[22] * u2 + b[21] * u1)) + b[20] * u0
+                  + a[4] * u_new - du[4] * u_old)
+
+
+@numba.njit(**_JIT_STEP)
+def _moment_sum(c, m):
+    """``sum_m c_m M_m`` (degree 4) as a short tree."""
+    return (c[0] * m[0] + c[1] * m[1]) + (c[2] * m[2] + c[3] * m[3]) + c[4] * m[4]
+
+
+@numba.njit(**_JIT_STEP)
+def _exact_moments(p, s, head, L):
+    """The window moments ``sum_i x_i^m v[i]`` from the ring buffers (full window)."""
+    h = 2.0 / (L - 1)
+    yw = s[_HS + head: _HS + head + L]  # y[k - i], newest first
+    uw = s[_HS + 2 * L + head + 1: _HS + 2 * L + head + L]  # u[k - 1 - i], i < L - 1
+    y0 = y1 = y2 = y3 = y4 = 0.0  # in locals: the views alias s, so sums in s would be
+    u0 = u1 = u2 = u3 = u4 = 0.0  # stored and reloaded at every term
+    for i in range(L):
+        x = -1.0 + i * h
+        x2 = x * x
+        x3 = x2 * x
+        x4 = x3 * x
+        yi = yw[i]
+        ui = uw[i] if i < L - 1 else 0.0
+        y0 += yi
+        y1 += x * yi
+        y2 += x2 * yi
+        y3 += x3 * yi
+        y4 += x4 * yi
+        u0 += ui
+        u1 += x * ui
+        u2 += x2 * ui
+        u3 += x3 * ui
+        u4 += x4 * ui
+    s[_MY] = y0
+    s[_MY + 1] = y1
+    s[_MY + 2] = y2
+    s[_MY + 3] = y3
+    s[_MY + 4] = y4
+    s[_MU] = u0
+    s[_MU + 1] = u1
+    s[_MU + 2] = u2
+    s[_MU + 3] = u3
+    s[_MU + 4] = u4
+    s[_MVALID] = 1.0
+    s[_MSINCE] = 0.0
 
 
 @numba.njit(
@@ -314,6 +411,23 @@ def intelligent_step(
     The law (module docstring, paper eqs. (iPID_c), (iPI_c), (ip), NOTES.md signs)::
 
         u = -(F_hat - y_ref^(nu) + Kp e + Ki int e + Kd e') / alpha,   e = y - y_ref.
+
+    Sliding moments. The weights of the algebraic F estimator and of the model derivative are
+    polynomials of low degree (<= :data:`MOMENT_DEGREE`) in the lag ``i``. With the abscissae
+    ``x_i = -1 + i h``, ``h = 2 / (L - 1)``, and ``w(i) = sum_m c_m x_i^m`` a window sum is
+    ``sum_i w(i) v[k-i] = sum_m c_m M_m`` with the moments ``M_m = sum_i x_i^m v[k-i]``. When a
+    sample enters, every other moves from ``x_i`` to ``x_i + h``, so (binomial theorem)::
+
+        M_m <- sum_{n<=m} C(m, n) h^(m-n) M_n + x_0^m v_new - x_drop^m v_old
+
+    (``x_drop = x_L`` for ``y``, ``x_(L-1)`` for ``u``): 2 x 15 multiply-adds per sample instead
+    of 2 or 4 sums of ``L`` terms. The recursion adds a rounding error per sample that would
+    walk without bound, so the moments are recomputed exactly every ``IPAR.REFRESH`` samples
+    (default ``L``), and that step uses the plain sums (bit for bit the plain form); between
+    two recomputations the error stays at round-off (``tests/test_speed_equivalence.py`` bounds
+    it over a 10-minute run). :meth:`IntelligentParams.to_array` switches the form on when the
+    fitted coefficients reproduce all four weight blocks to 1e-12 of their size and
+    ``L >= MOMENT_MIN_LENGTH`` (zero-padded blocks, the "simple" estimator: plain sums).
 
     References
     ----------
@@ -358,6 +472,15 @@ def intelligent_step(
     if head < 0:
         head += L
     s[_HEAD] = head
+    use_mom = p[_MOM] != 0.0
+    exact_moments = False
+    if use_mom:
+        if k >= L and s[_MVALID] != 0.0 and s[_MSINCE] < p[_REFRESH]:
+            # slide the moments by one sample (before the push overwrites the oldest y)
+            _slide_moments(p, s, y_in, s[yb0 + head], s[ub0 + head + 1], s[ub0 + head], L)
+            s[_MSINCE] += 1.0
+        else:
+            exact_moments = True
     s[yb0 + head] = y_in
     s[yb0 + head + L] = y_in
     s[_YL] = y_in
@@ -365,9 +488,22 @@ def intelligent_step(
         k += 1
         s[_K] = k
     full = k >= L
+    if full and exact_moments:
+        _exact_moments(p, s, head, L)
 
     u_out = u_prev
-    if full and y_ok:
+    if full and y_ok and use_mom and not exact_moments:
+        # the sliding-moment form ("Sliding moments" in the docstring): the same sums as below
+        # to round-off, in O(1) instead of O(L)
+        mb = _HP + 4 * L
+        my = s[_MY: _MY + _ND]
+        mu = s[_MU: _MU + _ND]
+        s[_FH] = _moment_sum(p[mb + _MB_CY: mb + _MB_CY + _ND], my) + alpha * _moment_sum(
+            p[mb + _MB_CU: mb + _MB_CU + _ND], mu)
+        if nu == 2:
+            s[_YD] = _moment_sum(p[mb + _MB_CDY: mb + _MB_CDY + _ND], my) + alpha * _moment_sum(
+                p[mb + _MB_CDU: mb + _MB_CDU + _ND], mu)
+    elif full and y_ok:
         # F_hat = sum wy[i] y[k-i] + alpha sum wu[j] u[k-1-j]   (estimators.f_estimator_weights)
         # y'_hat = sum wdy[i] y[k-i] + alpha sum wdu[j] u[k-1-j]  (nu = 2; wdu = 0: algebraic)
         # the sums are fused into one loop: independent accumulators, not one long add chain.
@@ -606,7 +742,7 @@ class IntelligentParams:
         """The parameters and estimator weights as one float64 array (layout :class:`IPAR`)."""
         L = self.buffer_length
         n = int(self.window)
-        p = np.zeros(_HP + 4 * L, dtype=np.float64)
+        p = np.zeros(_HP + 4 * L + MOMENT_BLOCK, dtype=np.float64)
         p[_NU] = self.nu
         p[_ALPHA] = self.alpha
         p[_KP] = self.kp
@@ -637,7 +773,46 @@ class IntelligentParams:
                 wdy, wdu = model_derivative_weights(nd, self.dt)
             p[_HP + 2 * L : _HP + 2 * L + nd] = wdy
             p[_HP + 3 * L : _HP + 3 * L + nd - 1] = wdu
+        _moment_constants(p, L)
         return p
+
+
+#: A fit of the weights by the moment polynomials counts as exact within this fraction of the
+#: block's largest weight (the fit's own round-off is ~1e-15 of it).
+_MOMENT_FIT_RTOL = 1e-12
+
+
+def _moment_constants(p: np.ndarray, L: int) -> None:
+    """Fill the moment block of ``p`` and switch the moment form on if it represents the
+    weights ("Sliding moments" in :func:`intelligent_step`)."""
+    p[_MOM] = 0.0
+    p[_REFRESH] = float(L)
+    if L < MOMENT_MIN_LENGTH:
+        return
+    h = 2.0 / (L - 1)
+    x = -1.0 + np.arange(L + 1) * h  # as the kernel: -1.0 + i * h
+    powers = np.arange(_ND)
+    vand = x[:L, None] ** powers
+    mb = _HP + 4 * L
+    blocks = ((_HP, L, _MB_CY), (_HP + L, L - 1, _MB_CU), (_HP + 2 * L, L, _MB_CDY),
+              (_HP + 3 * L, L - 1, _MB_CDU))
+    coefs = []
+    for start, n, dest in blocks:
+        w = p[start:start + n]
+        c = np.linalg.lstsq(vand[:n], w, rcond=None)[0]
+        scale = float(np.max(np.abs(w)))
+        if float(np.max(np.abs(vand[:n] @ c - w), initial=0.0)) > _MOMENT_FIT_RTOL * scale:
+            return  # not polynomial of degree <= MOMENT_DEGREE: the plain sums
+        coefs.append((dest, c))
+    for dest, c in coefs:
+        p[mb + dest: mb + dest + _ND] = c
+    for m in range(_ND):
+        for j in range(m + 1):
+            p[mb + _MB_B + m * _ND + j] = math.comb(m, j) * h ** (m - j)  # binomial shift
+        p[mb + _MB_ADD + m] = x[0] ** m  # the entering sample, lag 0
+        p[mb + _MB_DY + m] = x[L] ** m  # the leaving y, lag L after the shift
+        p[mb + _MB_DU + m] = x[L - 1] ** m  # the leaving u, lag L - 1 after the shift
+    p[_MOM] = 1.0
 
 
 def _check_window(name: str, value, lo: int, what: str) -> None:

@@ -133,9 +133,11 @@ slips RK4 at 1 ms is unstable below 1.7 m/s (bmw320i) and 3.7 m/s (peugeot406) (
 The right-hand side has kinks only at ``vx = 0`` (``|v_xw|``), ``|v_xw| = v_min_lat`` (C2
 there) and ``F_z = 0`` (lift-off); inputs switch the drive/brake branch at ``tw = 0``.
 
-Speed: about 0.85 us per RK4 step (~1150-1200x real time at 1 ms) on the project's machine,
-more than half of it in the four 4-tyre Magic Formula evaluations of a step; 2.5 us (~400x)
-before the tyres were evaluated in SIMD lanes (``benchmarks/README.md``).
+Speed: about 0.68-0.72 us per peugeot406 RK4 step (~1400-1450x real time at 1 ms) on the
+project's machine, about two thirds of it in the four 4-tyre Magic Formula evaluations of a
+step (the step took 0.24 us with a linear tyre in their place); 2.5 us (~400x) before the
+tyres were evaluated in SIMD lanes, 0.82 us before the rounding-level changes below
+(``benchmarks/README.md``).
 
 Implementation
 --------------
@@ -158,8 +160,16 @@ the polynomial ``atan``, ``sin``, ``cos``, ``exp`` of ``flatfree._vecmath``; LLV
 the four wheels in 4-wide vector registers. It gives the forces of the scalar kernels to
 round-off (1-2 ulp elementary functions) and the trajectories of the scalar path to ~1e-14 of
 each state's range (``tests/test_tendof_fastpath.py``). With ``tire_lanes=False`` pass 2 calls
-``math.atan`` and :func:`flatfree.tires.mf_combined` wheel by wheel: the reference path, equal
-bit for bit to the model before the lanes existed. The hot kernels (:func:`rhs_kernel`,
+``math.atan`` and :func:`flatfree.tires.mf_combined` wheel by wheel, and the body's cos and
+sin are libm's: the reference path (the lanes' path uses ``flatfree._vecmath`` for those too;
+the steer angle's cos and sin, once per step, are ``flatfree._vecmath``'s in both paths). Both paths share passes 1 and 3, which multiply by reciprocals of the constant
+divisors (``MP.inv_*``, ``arb_t_*``, ``q_lat_*``, ``q_long``); the lanes use fused
+multiply-adds (``flatfree.tires``) and, for tyres whose combined-slip curvature factors
+``r_Ex1, r_Ex2, r_Ey1, r_Ey2`` vanish (the peugeot406's), skip the weighting curves' second
+arc tangent, which then equals the first (``MP.lane_variant``, decided once per model). The
+model before these changes (2026-11-22) is reproduced to rounding, not bit for bit (60 s
+open-loop step-steer and braking runs of the three presets: max difference 2.9e-13 of each
+state's largest magnitude). The hot kernels (:func:`rhs_kernel`,
 :func:`rk4_step_kernel` and the loop of :func:`simulate_kernel`) are compiled without numba's
 reference counting (they allocate nothing): its per-call atomic increments and decrements of
 every array argument cost ~40 % of the run time. One RK4 step evaluates the steer angles' cos
@@ -188,6 +198,7 @@ from numba import njit
 
 from flatfree._validate import finite, positive
 from flatfree import _vecmath as vm
+from flatfree.tires import _lanes_g_plain as _mf_lanes_g_plain
 from flatfree.tires import _lanes_general as _mf_lanes_general
 from flatfree.tires import _mf_combined_lane, mf_combined, slip_speed, slip_stiffness
 from flatfree.units import G
@@ -305,6 +316,24 @@ class MP(enum.IntEnum):
     ackermann = 42  # 1 for Ackermann steering, 0 for parallel
     h_u = 43  # unsprung CoG height = R_e [m]
     tire_lanes = 44  # 1: tyres in SIMD lanes (mf_combined4), 0: scalar mf_combined
+    # reciprocals and per-axle combinations of the constants above: the right-hand side
+    # multiplies instead of dividing (a division has ~4x the latency of a multiplication)
+    inv_m = 45  # 1 / m [1/kg]
+    inv_ms = 46  # 1 / m_s [1/kg]
+    inv_iz = 47  # 1 / I_z [1/(kg m^2)]
+    inv_i_roll = 48  # [1/(kg m^2)]
+    inv_i_pitch = 49  # [1/(kg m^2)]
+    inv_tau_acc = 50  # [1/s]
+    inv_sigma_f = 51  # [1/m]
+    inv_sigma_r = 52
+    inv_iw_f = 53  # [1/(kg m^2)]
+    inv_iw_r = 54
+    arb_t_f = 55  # K_arb,f / T_f [N/rad]: the anti-roll bar's load change per unit roll
+    arb_t_r = 56
+    q_lat_f = 57  # (m_s share_f h_rc,f + m_u,f h_u) / T_f [kg]: transfer outside the springs
+    q_lat_r = 58
+    q_long = 59  # m_u,i h_u / L [kg]
+    lane_variant = 60  # the tyre lanes' variant: 0 plain, 1 E = 0 weighting curves, 2 general
 
 
 NX = len(TenDoFState)
@@ -364,6 +393,22 @@ _TAUA = int(MP.tau_acc)
 _ACK = int(MP.ackermann)
 _HU = int(MP.h_u)
 _LANES = int(MP.tire_lanes)
+_INVM = int(MP.inv_m)
+_INVMS = int(MP.inv_ms)
+_INVIZ = int(MP.inv_iz)
+_INVIROLL = int(MP.inv_i_roll)
+_INVIPITCH = int(MP.inv_i_pitch)
+_INVTAUA = int(MP.inv_tau_acc)
+_INVSIGF = int(MP.inv_sigma_f)
+_INVSIGR = int(MP.inv_sigma_r)
+_INVIWF = int(MP.inv_iw_f)
+_INVIWR = int(MP.inv_iw_r)
+_ARBTF = int(MP.arb_t_f)
+_ARBTR = int(MP.arb_t_r)
+_QLATF = int(MP.q_lat_f)
+_QLATR = int(MP.q_lat_r)
+_QLONG = int(MP.q_long)
+_LVAR = int(MP.lane_variant)
 _NTP = len(TP)
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
@@ -414,8 +459,8 @@ class TenDoFOptions:
         :func:`flatfree.tires.mf_combined` call and one ``math.atan`` per wheel. Both give the
         same forces to round-off (the elementary functions differ by 1-2 ulp) and the same
         trajectories to ~1e-14 of each state's range (``tests/test_tendof_fastpath.py``); the
-        lanes make the whole model about 2.3x faster. ``False`` is the scalar reference path,
-        bit-identical to the model before the lanes existed.
+        lanes make the whole model about 2.3x faster. ``False`` is the scalar reference path
+        (libm and ``mf_combined``; module docstring, Implementation).
     """
 
     ackermann: bool = field(default=False, metadata={"unit": ""})
@@ -463,8 +508,10 @@ def _steer_trig(u, p):
         d_l = math.atan(wb * td / (wb - 0.5 * tf * td))  # [VM] 1.8 Ackermann, inner = left
         d_r = math.atan(wb * td / (wb + 0.5 * tf * td))
         return math.cos(d_l), math.sin(d_l), math.cos(d_r), math.sin(d_r)
-    cl = math.cos(delta)
-    sl = math.sin(delta)
+    # flatfree._vecmath's cos and sin (<= 2 ulp, inlined: no libm call) in both paths: passes 1
+    # and 3, which use them, are shared by the lanes and the scalar reference path
+    cl = vm.cos(delta)
+    sl = vm.sin(delta)
     return cl, sl, cl, sl
 
 
@@ -574,11 +621,10 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
             tt = tf
             k = p[_KF]
             c = p[_CF]
-            karb = p[_ARBF]
+            karb_t = p[_ARBTF]
             fz0 = p[_FZ0F]
-            share = lr / wb
-            hrc = p[_HRCF]
-            sig = p[_SIGF]
+            q_lat = p[_QLATF]
+            inv_sig = p[_INVSIGF]
             taud = p[_TDF]
             dlong = -1.0  # front gains load when braking (a_x < 0)
             if left:
@@ -592,11 +638,10 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
             tt = tr
             k = p[_KR]
             c = p[_CR]
-            karb = p[_ARBR]
+            karb_t = p[_ARBTR]
             fz0 = p[_FZ0R]
-            share = lf / wb
-            hrc = p[_HRCR]
-            sig = p[_SIGR]
+            q_lat = p[_QLATR]
+            inv_sig = p[_INVSIGR]
             taud = p[_TDR]
             dlong = 1.0
             cd = 1.0
@@ -608,11 +653,12 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
         s = -z + xi * th - yj * phi  # corner compression
         sd_ = -zd + xi * thd - yj * phid
         dfs = k * s + c * sd_
-        dfarb = -(2.0 * yj / (tt * tt)) * karb * phi
+        dfarb = -side * karb_t * phi  # -(2 y_j / T_i^2) K_arb,i phi, 2 y_j / T_i = side
         # transfer outside the springs: roll-centre links and unsprung masses (filtered a)
         # per wheel: lateral m_s share_i a_y h_rc,i / T_i + m_u,i a_y h_u / T_i, longitudinal
-        # (m_u h_u a_x) / (2 L) with m_u = 2 m_u,i ([VM] 1.5 moment balance)
-        dfq = -side * (ms * share * hrc + mua * hu) * ayf / tt + dlong * mua * hu * axf / wb
+        # (m_u h_u a_x) / (2 L) with m_u = 2 m_u,i ([VM] 1.5 moment balance); the constant
+        # factors q_lat, q_long are precomputed (_build_params)
+        dfq = -side * q_lat * ayf + dlong * p[_QLONG] * axf
         fz = fz0 + dfs + dfarb + dfq
         if fz < 0.0:
             fz = 0.0  # lift-off
@@ -628,7 +674,7 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
         om = x[_OM + w]
         kap = x[_KA + w]
         vslip = om * re - vxw  # slip speed, > 0 when driving
-        kdot = (vslip - abs(vxw) * kap) / sig  # [P12] 7.2 relaxation, sigma_x
+        kdot = (vslip - abs(vxw) * kap) * inv_sig  # [P12] 7.2 relaxation, sigma_x
         dx[_KA + w] = kdot
         keff = kap + taud * kdot  # Kelvin-Voigt carcass damping (module docstring, item 5)
 
@@ -645,12 +691,23 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
         # above), so the loop touches no memory but diag at a constant stride: LLVM vectorises it.
         ta = vm.as_tuple(tpf, _NTP)
         tb = vm.as_tuple(tpr, _NTP)
-        if _mf_lanes_general(ta, tb):
+        # the variant, decided once per model (_build_params: flatfree.tires._lanes_general,
+        # _lanes_g_plain on the two tyres), not at every call
+        variant = p[_LVAR]
+        if variant == 2.0:
             for w in range(4):
                 alpha = vm.atan(diag[w, 3])
                 diag[w, 3] = alpha
                 diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
                                                            diag[w, 5], ta, tb, w < 2, True)
+        elif variant == 1.0:
+            # weighting curves with E = 0 (flatfree.tires._mf_combined_lane, g_plain)
+            for w in range(4):
+                alpha = vm.atan(diag[w, 3])
+                diag[w, 3] = alpha
+                diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
+                                                           diag[w, 5], ta, tb, w < 2, False,
+                                                           True)
         else:
             for w in range(4):
                 alpha = vm.atan(diag[w, 3])
@@ -671,7 +728,7 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
         if front:
             xi = lf
             tt = tf
-            iw = p[_IWF]
+            inv_iw = p[_INVIWF]
             tdrive = drv_f
             tbrake = brk_f
             if left:
@@ -683,7 +740,7 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
         else:
             xi = -lr
             tt = tr
-            iw = p[_IWR]
+            inv_iw = p[_INVIWR]
             tdrive = drv_r
             tbrake = brk_r
             cd = 1.0
@@ -705,9 +762,9 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
         sgn0 = _smooth_sign(om, p[_SGN0])
         tq = tdrive - re * fx - p[_FR] * fz * re * sgn0
         if tbrake > 0.0:
-            eps_b = max(p[_SGN0], tbrake * p[_TAUB] / iw)
+            eps_b = max(p[_SGN0], tbrake * p[_TAUB] * inv_iw)
             tq -= tbrake * _smooth_sign(om, eps_b)
-        dx[_OM + w] = tq / iw
+        dx[_OM + w] = tq * inv_iw
 
         if plain_slip:
             # plain slip ratio (diagnostics): the contact-point speed of pass 1, recomputed
@@ -715,35 +772,46 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
             diag[w, 5] = (om * re - vxw) / max(abs(vxw), p[_VMIN])
 
     # ---- planar motion ([VM] 1.3) ----
-    ax = (sum_fx - fd) / m  # body-frame CoG acceleration
-    ay = sum_fy / m
+    inv_m = p[_INVM]
+    ax = (sum_fx - fd) * inv_m  # body-frame CoG acceleration
+    ay = sum_fy * inv_m
     psi = x[_PSI]
-    cpsi = math.cos(psi)
-    spsi = math.sin(psi)
+    if p[_LANES] != 0.0:
+        # the fast path's elementary functions (flatfree._vecmath, <= 2 ulp; inlined
+        # polynomials instead of four libm calls per right-hand side)
+        cpsi = vm.cos(psi)
+        spsi = vm.sin(psi)
+        sphi = vm.sin(phi)
+        sth = vm.sin(th)
+    else:
+        cpsi = math.cos(psi)
+        spsi = math.sin(psi)
+        sphi = math.sin(phi)
+        sth = math.sin(th)
     dx[_X] = vx * cpsi - vy * spsi  # [VM] 1.1
     dx[_Y] = vx * spsi + vy * cpsi
     dx[_PSI] = r
     dx[_VX] = ax + r * vy
     dx[_VY] = ay - r * vx
-    dx[_R] = mz / p[_IZ]
+    dx[_R] = mz * p[_INVIZ]
 
     # ---- sprung body ([VM] 1.4, module docstring item 2) ----
     hroll = p[_HROLL]
     hs = p[_HS]
     dx[_Z] = zd
-    dx[_ZD] = (f_heave + lift_f + lift_r) / ms
+    dx[_ZD] = (f_heave + lift_f + lift_r) * p[_INVMS]
     dx[_PHI] = phid
-    dx[_PHID] = (ms * hroll * (ay + g * math.sin(phi)) + m_roll_susp) / p[_IROLL]
+    dx[_PHID] = (ms * hroll * (ay + g * sphi) + m_roll_susp) * p[_INVIROLL]
     dx[_TH] = thd
     dx[_THD] = (
-        -ms * hs * ax - fd * p[_HD] + ms * g * hs * math.sin(th) - m_pitch_susp
+        -ms * hs * ax - fd * p[_HD] + ms * g * hs * sth - m_pitch_susp
         - lf * lift_f + lr * lift_r
-    ) / p[_IPITCH]
+    ) * p[_INVIPITCH]
 
     # ---- acceleration filter ([VM] 1.5) ----
-    tau = p[_TAUA]
-    dx[_AXF] = (ax - axf) / tau
-    dx[_AYF] = (ay - ayf) / tau
+    inv_tau = p[_INVTAUA]
+    dx[_AXF] = (ax - axf) * inv_tau
+    dx[_AYF] = (ay - ayf) * inv_tau
 
 
 @njit(**_JIT_NO_REFCOUNT)
@@ -1220,7 +1288,29 @@ def _build_params(vp: VehicleParams, opts: TenDoFOptions) -> np.ndarray:
     p[_ACK] = 1.0 if opts.ackermann else 0.0
     p[_HU] = h_u
     p[_LANES] = 1.0 if opts.tire_lanes else 0.0
+    for inv, val in ((_INVM, m), (_INVMS, m_s), (_INVIZ, p[_IZ]), (_INVIROLL, p[_IROLL]),
+                     (_INVIPITCH, p[_IPITCH]), (_INVTAUA, p[_TAUA]), (_INVSIGF, p[_SIGF]),
+                     (_INVSIGR, p[_SIGR]), (_INVIWF, p[_IWF]), (_INVIWR, p[_IWR])):
+        p[inv] = 1.0 / val
+    p[_ARBTF] = p[_ARBF] / p[_TF]
+    p[_ARBTR] = p[_ARBR] / p[_TR]
+    # module docstring item 3: m_s share_i h_rc,i / T_i + m_u,i h_u / T_i, m_u,i h_u / L
+    p[_QLATF] = (m_s * (vp.lr / wb) * p[_HRCF] + p[_MUA] * h_u) / p[_TF]
+    p[_QLATR] = (m_s * (vp.lf / wb) * p[_HRCR] + p[_MUA] * h_u) / p[_TR]
+    p[_QLONG] = p[_MUA] * h_u / wb
+    ta, tb = vp.tire_front.to_array(), vp.tire_rear.to_array()
+    p[_LVAR] = 2.0 if _lanes_general_py(ta, tb) else (1.0 if _lanes_g_plain_py(ta, tb) else 0.0)
     return p
+
+
+@njit(cache=True)
+def _lanes_general_py(tpf, tpr) -> bool:
+    return _mf_lanes_general(vm.as_tuple(tpf, _NTP), vm.as_tuple(tpr, _NTP))
+
+
+@njit(cache=True)
+def _lanes_g_plain_py(tpf, tpr) -> bool:
+    return _mf_lanes_g_plain(vm.as_tuple(tpf, _NTP), vm.as_tuple(tpr, _NTP))
 
 
 def stable_step(model: TenDoF, x, u) -> tuple[float, float]:

@@ -142,6 +142,54 @@ def _hermite_scalar(v0, m0, v1, m1, sigma, h):
     return val, der
 
 
+@numba.njit(cache=True, inline="always")
+def _hermite_inv(g, i, sigma, h, inv_h):
+    """:func:`_hermite` with the divisions by ``h`` as multiplications by ``inv_h = 1 / h``
+    (the projection's Newton loop: same formulas to round-off, ~4x shorter latency each)."""
+    t = sigma * inv_h
+    inv_h2 = inv_h * inv_h
+    t2 = t * t
+    t3 = t2 * t
+    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
+    h10 = t3 - 2.0 * t2 + t
+    h01 = -2.0 * t3 + 3.0 * t2
+    h11 = t3 - t2
+    d00 = (6.0 * t2 - 6.0 * t) * inv_h
+    d10 = 3.0 * t2 - 4.0 * t + 1.0
+    d01 = (-6.0 * t2 + 6.0 * t) * inv_h
+    d11 = 3.0 * t2 - 2.0 * t
+    e00 = (12.0 * t - 6.0) * inv_h2
+    e10 = (6.0 * t - 4.0) * inv_h
+    e01 = (-12.0 * t + 6.0) * inv_h2
+    e11 = (6.0 * t - 2.0) * inv_h
+    x0 = g[i, _X]
+    y0 = g[i, _Y]
+    x1 = g[i + 1, _X]
+    y1 = g[i + 1, _Y]
+    tx0 = g[i, _TX] * h
+    ty0 = g[i, _TY] * h
+    tx1 = g[i + 1, _TX] * h
+    ty1 = g[i + 1, _TY] * h
+    px = h00 * x0 + h10 * tx0 + h01 * x1 + h11 * tx1
+    py = h00 * y0 + h10 * ty0 + h01 * y1 + h11 * ty1
+    dx = d00 * x0 + d10 * g[i, _TX] + d01 * x1 + d11 * g[i + 1, _TX]
+    dy = d00 * y0 + d10 * g[i, _TY] + d01 * y1 + d11 * g[i + 1, _TY]
+    ddx = e00 * x0 + e10 * g[i, _TX] + e01 * x1 + e11 * g[i + 1, _TX]
+    ddy = e00 * y0 + e10 * g[i, _TY] + e01 * y1 + e11 * g[i + 1, _TY]
+    return px, py, dx, dy, ddx, ddy
+
+
+@numba.njit(cache=True, inline="always")
+def _hermite_scalar_value(v0, m0, v1, m1, sigma, h, inv_h):
+    """The value of :func:`_hermite_scalar` (``inv_h = 1 / h``; the projection's heading and
+    curvature, whose derivatives it does not use)."""
+    t = sigma * inv_h
+    t2 = t * t
+    t3 = t2 * t
+    return (2.0 * t3 - 3.0 * t2 + 1.0) * v0 + (t3 - 2.0 * t2 + t) * h * m0 \
+        + (-2.0 * t3 + 3.0 * t2) * v1 + (t3 - t2) * h * m1
+
+
 @numba.njit(cache=True)
 def path_eval(g, closed, s):
     """Path quantities at arc length ``s``.
@@ -245,6 +293,7 @@ def frenet_project(g, closed, x, y, psi, seg):
     """
     n_seg = g.shape[0] - 1
     h = g[1, _S] - g[0, _S]
+    inv_h = 1.0 / h  # the Hermite formulas multiply by it (one division per call)
     i = seg
     if closed:
         i = i % n_seg
@@ -276,7 +325,7 @@ def frenet_project(g, closed, x, y, psi, seg):
     for _shift in range(4):
         done = False
         for _it in range(5):
-            px, py, dx, dy, ddx, ddy = _hermite(g, i, sigma, h)
+            px, py, dx, dy, ddx, ddy = _hermite_inv(g, i, sigma, h, inv_h)
             rx = px - x
             ry = py - y
             fp = dx * dx + dy * dy + rx * ddx + ry * ddy
@@ -307,12 +356,14 @@ def frenet_project(g, closed, x, y, psi, seg):
         return g[j, _S] + along, e_y, _wrap(psi - g[j, _PSI]), 0.0, i
     if not done or sigma < 0.0 or sigma > h:
         sigma = min(max(sigma, 0.0), h)
-        px, py, dx, dy, _, _ = _hermite(g, i, sigma, h)
+        px, py, dx, dy, _, _ = _hermite_inv(g, i, sigma, h, inv_h)
     # (when Newton converged, px..dy are those of the last iterate, < 1e-9 m away)
     nrm = math.sqrt(dx * dx + dy * dy)
     e_y = (-(x - px) * dy + (y - py) * dx) / nrm
-    psi_p, _ = _hermite_scalar(g[i, _PSI], g[i, _K], g[i + 1, _PSI], g[i + 1, _K], sigma, h)
-    kap, _ = _hermite_scalar(g[i, _K], g[i, _DK], g[i + 1, _K], g[i + 1, _DK], sigma, h)
+    psi_p = _hermite_scalar_value(g[i, _PSI], g[i, _K], g[i + 1, _PSI], g[i + 1, _K], sigma, h,
+                                  inv_h)
+    kap = _hermite_scalar_value(g[i, _K], g[i, _DK], g[i + 1, _K], g[i + 1, _DK], sigma, h,
+                                inv_h)
     s = g[i, _S] + sigma
     if closed and s >= g[n_seg, _S]:
         s -= g[n_seg, _S]
