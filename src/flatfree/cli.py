@@ -247,7 +247,9 @@ seed = 0                    # seed of the sensor noise
 
 [controller_settings]       # the chosen controller's own settings; empty: its defaults
 # flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal)
-# mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat
+# mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat,
+#              wn_lat_speed, wn_lat_ratio (speed schedule), yaw_damping
+#              (dallara_av21: alpha_lat = 60.0)
 
 [reference]
 track = "Norisring"         # a bundled track (flatfree tracks) or a CSV path;
@@ -260,6 +262,7 @@ a_drive_max = 3.0           # [m/s^2]
 a_brake_max = 6.0           # [m/s^2]
 v_max = 50.0                # [m/s]
 mu = 1.0                    # friction the speed profile plans with [-]
+drive_limit = false         # true: also within the car's drive limit (power, torque, drag)
 
 [timing]
 plant_dt_s = 0.001          # plant RK4 step
