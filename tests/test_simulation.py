@@ -385,3 +385,67 @@ def test_drive_limit_plans_the_reference_the_car_can_drive():
     for v, top in ((v_on, top_on), (v_off, top_off)):
         assert top - 0.06 < v.max() <= top + 1e-9
     assert top_on < top_off - 5.0  # the peugeot406 cannot reach the friction profile's
+
+
+class _NaturalDoor:
+    """The engine's built-in natural-output controller through its Python class."""
+
+    schedule = "path"
+
+    def __init__(self, sc):
+        from flatfree.actuators import ActuatorParams
+        from flatfree.controllers.vehicle import NaturalOutputController
+        from flatfree.simulation import prepare
+        from flatfree.vehicles import load_vehicle
+
+        self.steer0 = prepare(sc).steer0
+        self.c = NaturalOutputController(
+            dt=sc.timing.control_dt_s,
+            actuators=ActuatorParams.from_vehicle(load_vehicle(sc.vehicle)))
+
+    def reset(self):
+        self.c.reset(steer0=self.steer0)
+
+    def step(self, t, measurement, reference, applied):
+        from flatfree.controllers.vehicle import CREF, MEAS
+
+        m, r = measurement, reference
+        return self.c.step(vx=m[MEAS.VX], r=m[MEAS.R], e_y=m[MEAS.E_Y], kappa=r[CREF.KAPPA],
+                           vx_ref=r[CREF.VX], ax_ref=r[CREF.AX], e_y_ref=r[CREF.EY],
+                           e_y_ref_dot=r[CREF.EY_DOT], e_y_ref_ddot=r[CREF.EY_DDOT],
+                           applied_torque=applied[0], applied_steer=applied[1])
+
+
+def test_natural_output_controller_class_is_the_engines_controller():
+    """NaturalOutputController (reset/step for a user's loop) driven through the engine's
+    Python door reproduces the built-in run bit for bit (same kernel, same inputs)."""
+    sc = _scenario(timing=Timing(duration_s=1.5, log_dt_s=0.01))
+    built_in = simulate(sc)
+    run = simulate(sc, controller=_NaturalDoor(sc))
+    for k in built_in:
+        if k in ("f_lon", "f_lat"):
+            continue
+        np.testing.assert_array_equal(run[k], built_in[k], err_msg=k)
+
+
+def test_natural_output_controller_holds_limits_and_refuses_bad_input():
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import MfcNaturalSettings, NaturalOutputController
+    from flatfree.vehicles import load_vehicle
+
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    c = NaturalOutputController(dt=0.001, actuators=act,
+                                settings=MfcNaturalSettings(yaw_damping=0.0))
+    c.reset(steer0=0.02, torque0=100.0)
+    # before the windows are full the held inputs come back (the actuators' positions)
+    assert c.step(vx=20.0, r=0.0, e_y=0.0, kappa=0.0, vx_ref=20.0) == (100.0, 0.02)
+    # a 10 cm step of lateral deviation: once the window is full the steer command may jump,
+    # but it always stays within the steer range of the actuators
+    steers = [c.step(vx=20.0, r=0.0, e_y=0.1, kappa=0.0, vx_ref=20.0)[1] for _ in range(300)]
+    assert max(abs(v) for v in steers) <= act.max_steer
+    with pytest.raises(ValueError, match="actuators"):
+        NaturalOutputController(dt=0.001, actuators=None)
+    with pytest.raises(ValueError, match="dt"):
+        NaturalOutputController(dt=0.0, actuators=act)
+    with pytest.raises(ValueError, match="steer0"):
+        c.reset(steer0=math.nan)

@@ -34,6 +34,9 @@ _API = {
     "IntelligentParams": "flatfree.controllers.intelligent",
     "FlatnessController": "flatfree.controllers.flatness_control",
     "FlatnessControlParams": "flatfree.controllers.flatness_control",
+    "NaturalOutputController": "flatfree.controllers.vehicle",
+    "MfcNaturalSettings": "flatfree.controllers.vehicle",
+    "ActuatorParams": "flatfree.actuators",
     # references
     "load_track": "flatfree.tracks",
     "load_recording": "flatfree.tracks",

@@ -104,6 +104,7 @@ __all__ = [
     "KIND",
     "MfcFlatSettings",
     "MfcNaturalSettings",
+    "NaturalOutputController",
     "FlatnessSettings",
     "SCHEDULES",
     "VehicleControllerArrays",
@@ -730,3 +731,116 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
 def f_hat_index() -> int:
     """Index of the last F estimate in an intelligent controller's state array."""
     return int(IST.F_HAT)
+
+
+class NaturalOutputController:
+    """The paper's model-free controller on natural outputs for a user's own loop.
+
+    ``reset()`` / ``step()`` over the same compiled kernel as the closed-loop engine
+    (:func:`vehicle_step` with :class:`MfcNaturalSettings`): an iP on the speed (wheel torque)
+    and an iPD on the lateral deviation (steer), plus the settings' yaw damper and speed
+    schedule. Call :meth:`step` once per control period ``dt``; hold its outputs until the next
+    call (zero-order hold: the estimators assume it).
+
+    Parameters
+    ----------
+    dt : float
+        Control period [s] (the settings were tuned at 1 ms).
+    actuators : ActuatorParams
+        Steer and torque limits (``ActuatorParams.from_vehicle(load_vehicle(...))`` or your
+        own). The controller clips to them and, unless told what was applied, assumes that a
+        rate-limited, saturating actuator applied its previous command.
+    settings : MfcNaturalSettings, optional
+        Default: the peugeot406 tuning (:data:`flatfree.scenarios.NATURAL_SETTINGS`); use
+        ``alpha_lat`` of the order of your car's steer gain (``natural_settings("dallara_av21")``).
+
+    Examples
+    --------
+    >>> from flatfree.actuators import ActuatorParams
+    >>> from flatfree.vehicles import load_vehicle
+    >>> ctrl = NaturalOutputController(
+    ...     dt=0.001, actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")))
+    >>> ctrl.reset()
+    >>> torque, steer = ctrl.step(vx=20.0, r=0.0, e_y=0.01, kappa=0.0, vx_ref=20.0)
+    """
+
+    __slots__ = ("_arrays", "_act", "_dt", "_settings", "_meas", "_ref", "_prev", "_applied")
+
+    def __init__(self, *, dt: float, actuators: ActuatorParams,
+                 settings: MfcNaturalSettings | None = None) -> None:
+        if not isinstance(actuators, ActuatorParams):
+            raise ValueError(f"actuators = {actuators!r}: expected flatfree.actuators."
+                             "ActuatorParams (e.g. ActuatorParams.from_vehicle(vehicle))")
+        if settings is None:
+            settings = MfcNaturalSettings()
+        if not isinstance(settings, MfcNaturalSettings):
+            raise ValueError(f"settings = {settings!r}: expected MfcNaturalSettings")
+        self._dt = positive("dt", dt, "s")
+        self._act = actuators
+        self._settings = settings
+        self._meas = np.full(len(MEAS), np.nan)
+        self._ref = np.zeros(len(CREF))
+        self._arrays = build_mfc("mfc-natural", settings, dt=self._dt, actuators=actuators)
+        self._prev = np.zeros(2)  # previous commands (torque, steer)
+        self._applied = np.zeros(2)  # what the actuators applied over the last period
+
+    @property
+    def settings(self) -> MfcNaturalSettings:
+        """The controller's settings."""
+        return self._settings
+
+    def reset(self, *, steer0: float = 0.0, torque0: float = 0.0) -> None:
+        """Fresh estimators; ``steer0`` [rad] and ``torque0`` [N m] are the actuators' positions,
+        held until the estimator windows are full (50 / 100 samples by default)."""
+        steer0 = finite("steer0", steer0, "rad")
+        torque0 = finite("torque0", torque0, "N m")
+        self._arrays = build_mfc("mfc-natural", self._settings, dt=self._dt,
+                                 actuators=self._act, steer0=steer0, torque0=torque0)
+        self._prev[:] = (torque0, steer0)
+        self._applied[:] = (torque0, steer0)
+
+    def step(self, *, vx: float, r: float, e_y: float, kappa: float, vx_ref: float,
+             ax_ref: float = 0.0, e_y_ref: float = 0.0, e_y_ref_dot: float = 0.0,
+             e_y_ref_ddot: float = 0.0, applied_torque: float | None = None,
+             applied_steer: float | None = None) -> tuple[float, float]:
+        """One control step: returns (wheel torque [N m], road-wheel steer [rad]).
+
+        Parameters
+        ----------
+        vx : float
+            Measured longitudinal speed [m/s].
+        r : float
+            Measured yaw rate [rad/s] (the yaw damper).
+        e_y : float
+            Measured lateral deviation of the CoG from the path [m], left positive.
+        kappa : float
+            Path curvature at the car's position [1/m] (the yaw damper's r - vx kappa).
+        vx_ref, ax_ref : float
+            Speed reference [m/s] and its derivative [m/s^2].
+        e_y_ref, e_y_ref_dot, e_y_ref_ddot : float
+            Lateral-deviation reference and its derivatives (0: follow the path).
+        applied_torque, applied_steer : float, optional
+            What the actuators applied over the last period, if known (the estimators must see
+            the applied input); default: the previous command through the rate limit and the
+            saturation of ``actuators``. A NaN measurement is handled as in the engine (the
+            last output is held, the window keeps its time base).
+        """
+        a = self._act
+        if applied_steer is None:
+            lo = self._applied[1] - a.max_steer_rate * self._dt
+            hi = self._applied[1] + a.max_steer_rate * self._dt
+            applied_steer = min(max(min(max(self._prev[1], lo), hi), -a.max_steer), a.max_steer)
+        if applied_torque is None:
+            applied_torque = min(max(self._prev[0], -a.max_brake_torque), a.max_drive_torque)
+        m = self._meas
+        m[MEAS.VX], m[MEAS.R], m[MEAS.E_Y] = vx, r, e_y
+        c = self._ref
+        c[CREF.VX], c[CREF.AX], c[CREF.KAPPA] = vx_ref, ax_ref, kappa
+        c[CREF.EY], c[CREF.EY_DOT], c[CREF.EY_DDOT] = e_y_ref, e_y_ref_dot, e_y_ref_ddot
+        z = self._arrays
+        tw, delta = vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon,
+                                 z.f_lat, z.f_yaw, m, c, float(applied_torque),
+                                 float(applied_steer))
+        self._applied[:] = (applied_torque, applied_steer)
+        self._prev[:] = (tw, delta)
+        return float(tw), float(delta)
