@@ -292,7 +292,12 @@ class MfcNaturalSettings:
         faster where the car is slow. No vehicle parameter enters; the same rule serves every
         track (benchmarks/README.md "Closed loop").
     wn_lat_ratio : float
-        Largest ratio ``wn / wn_lat`` of the schedule (>= 1).
+        Largest ratio ``wn / wn_lat`` of the schedule (>= 1). 1.5 (wn <= 12 rad/s, reached
+        at 20 m/s): with 2 (wn up to 16 rad/s at hairpin exits near 10 m/s) the steer swung
+        up to 0.5 rad while the unloaded inner front wheel of the open differential spun up
+        under full drive torque and 3 of 60 noisy Norisring laps left the track at its
+        hairpin exit (49-54 s); with 1.5, 60 of 60 completed, max 1.34-2.65 cm (2: 1.41-2.59);
+        Spa 20/30 vs 18/30, Catalunya 27/30 both (benchmarks/README.md "Closed loop").
     window_lat : int
         Samples of the F estimator window (lateral loop).
     derivative_lat : str
@@ -342,7 +347,7 @@ class MfcNaturalSettings:
     wn_lat: float = 8.0
     zeta_lat: float = 1.0
     wn_lat_speed: float = 30.0
-    wn_lat_ratio: float = 2.0
+    wn_lat_ratio: float = 1.5
     window_lat: int = 100
     derivative_lat: str = "model"
     denoise_lon: int = 0
