@@ -223,46 +223,48 @@ def test_flatness_runs_in_the_loop_and_plans_with_its_own_model():
     assert np.sqrt(np.mean((tr["vx"] - tr["vx_ref"])[100:] ** 2)) < 0.1
 
 
-class _WrappedNatural:
-    """A Python controller that calls the built-in natural-output kernel itself."""
+class _NaturalDoor:
+    """The engine's built-in natural-output controller through its Python class
+    (:class:`flatfree.controllers.vehicle.NaturalOutputController`, same compiled kernel)."""
 
     schedule = "path"
 
     def __init__(self, sc):
         from flatfree.actuators import ActuatorParams
-        from flatfree.controllers.vehicle import MfcNaturalSettings, build_mfc
+        from flatfree.controllers.vehicle import NaturalOutputController
+        from flatfree.simulation import prepare
         from flatfree.vehicles import load_vehicle
 
-        from flatfree.simulation import prepare
-
-        act = ActuatorParams.from_vehicle(load_vehicle(sc.vehicle))
-        # the engine starts the actuator at the reference's steer; the built-in controller holds
-        # that until its window is full, and so must this one to be comparable
-        self.c = build_mfc("mfc-natural", MfcNaturalSettings(), dt=sc.timing.control_dt_s,
-                           actuators=act, steer0=prepare(sc).steer0)
+        self.steer0 = prepare(sc).steer0
         self.calls = 0
+        self.c = NaturalOutputController(
+            dt=sc.timing.control_dt_s,
+            actuators=ActuatorParams.from_vehicle(load_vehicle(sc.vehicle)))
 
     def reset(self):
-        self.c.reset()
+        self.c.reset(steer0=self.steer0)
 
     def step(self, t, measurement, reference, applied):
-        from flatfree.controllers.vehicle import vehicle_step
+        from flatfree.controllers.vehicle import CREF, MEAS
 
         self.calls += 1
-        c = self.c
-        return vehicle_step(c.kind, c.p_lon, c.s_lon, c.p_lat, c.s_lat, c.coef, c.f_lon, c.f_lat,
-                            c.f_yaw, measurement, reference, applied[0], applied[1])
+        m, r = measurement, reference
+        return self.c.step(vx=m[MEAS.VX], r=m[MEAS.R], e_y=m[MEAS.E_Y], kappa=r[CREF.KAPPA],
+                           vx_ref=r[CREF.VX], ax_ref=r[CREF.AX], e_y_ref=r[CREF.EY],
+                           e_y_ref_dot=r[CREF.EY_DOT], e_y_ref_ddot=r[CREF.EY_DDOT],
+                           applied_torque=applied[0], applied_steer=applied[1])
 
 
 def test_python_controller_door_gives_the_compiled_result_bit_for_bit():
-    """The same kernel called from Python through the pausing loop: identical trajectories
-    (the engine, sensors, actuators and logging are shared; only the door differs)."""
+    """The same kernel called from Python through the pausing loop, by the user-facing
+    NaturalOutputController: identical trajectories (the engine, sensors, actuators and logging
+    are shared; only the door differs)."""
     sc = _scenario(timing=Timing(duration_s=1.5, log_dt_s=0.01))
     ref_run = simulate(sc)
-    wrapped = _WrappedNatural(sc)
+    wrapped = _NaturalDoor(sc)
     py_run = simulate(sc, controller=wrapped)
     assert wrapped.calls == 1500
-    assert py_run.meta["controller"] == "python:_WrappedNatural"
+    assert py_run.meta["controller"] == "python:_NaturalDoor"
     for k in ref_run:
         if k in ("f_lon", "f_lat"):  # controller internals: only the built-in door logs them
             continue
@@ -385,47 +387,6 @@ def test_drive_limit_plans_the_reference_the_car_can_drive():
     for v, top in ((v_on, top_on), (v_off, top_off)):
         assert top - 0.06 < v.max() <= top + 1e-9
     assert top_on < top_off - 5.0  # the peugeot406 cannot reach the friction profile's
-
-
-class _NaturalDoor:
-    """The engine's built-in natural-output controller through its Python class."""
-
-    schedule = "path"
-
-    def __init__(self, sc):
-        from flatfree.actuators import ActuatorParams
-        from flatfree.controllers.vehicle import NaturalOutputController
-        from flatfree.simulation import prepare
-        from flatfree.vehicles import load_vehicle
-
-        self.steer0 = prepare(sc).steer0
-        self.c = NaturalOutputController(
-            dt=sc.timing.control_dt_s,
-            actuators=ActuatorParams.from_vehicle(load_vehicle(sc.vehicle)))
-
-    def reset(self):
-        self.c.reset(steer0=self.steer0)
-
-    def step(self, t, measurement, reference, applied):
-        from flatfree.controllers.vehicle import CREF, MEAS
-
-        m, r = measurement, reference
-        return self.c.step(vx=m[MEAS.VX], r=m[MEAS.R], e_y=m[MEAS.E_Y], kappa=r[CREF.KAPPA],
-                           vx_ref=r[CREF.VX], ax_ref=r[CREF.AX], e_y_ref=r[CREF.EY],
-                           e_y_ref_dot=r[CREF.EY_DOT], e_y_ref_ddot=r[CREF.EY_DDOT],
-                           applied_torque=applied[0], applied_steer=applied[1])
-
-
-def test_natural_output_controller_class_is_the_engines_controller():
-    """NaturalOutputController (reset/step for a user's loop) driven through the engine's
-    Python door reproduces the built-in run bit for bit (same kernel, same inputs)."""
-    sc = _scenario(timing=Timing(duration_s=1.5, log_dt_s=0.01))
-    built_in = simulate(sc)
-    run = simulate(sc, controller=_NaturalDoor(sc))
-    for k in built_in:
-        if k in ("f_lon", "f_lat"):
-            continue
-        np.testing.assert_array_equal(run[k], built_in[k], err_msg=k)
 
 
 def test_natural_output_controller_holds_limits_and_refuses_bad_input():

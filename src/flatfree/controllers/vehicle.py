@@ -80,7 +80,7 @@ import numpy as np
 from numba import njit
 
 from flatfree._validate import finite, positive
-from flatfree.actuators import ActuatorParams
+from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers.flatness_control import (
     FlatnessControlParams,
     flatness_step,
@@ -290,7 +290,8 @@ class MfcNaturalSettings:
         ``wn`` of 10-12 loses the fast tracks (Spa, LVMS: measured). The yaw mode left as zero
         dynamics (``yaw_damping``) is damped in proportion to ``1 / Vx``, so the loop can be
         faster where the car is slow. No vehicle parameter enters; the same rule serves every
-        track (benchmarks/README.md "Closed loop").
+        track (benchmarks/README.md "Closed loop"; reproduce the constant-wn figures with
+        ``benchmarks/sweep_seeds.py --set wn_lat_speed=0 --set wn_lat=12``).
     wn_lat_ratio : float
         Largest ratio ``wn / wn_lat`` of the schedule (>= 1). 1.5 (wn <= 12 rad/s, reached
         at 20 m/s): with 2 (wn up to 16 rad/s at hairpin exits near 10 m/s) the steer swung
@@ -753,8 +754,9 @@ class NaturalOutputController:
         Control period [s] (the settings were tuned at 1 ms).
     actuators : ActuatorParams
         Steer and torque limits (``ActuatorParams.from_vehicle(load_vehicle(...))`` or your
-        own). The controller clips to them and, unless told what was applied, assumes that a
-        rate-limited, saturating actuator applied its previous command.
+        own). The controller clips to them and, unless told what was applied, assumes that
+        these actuators (:func:`flatfree.actuators.actuate_step`: dead time, lag, rate limit,
+        range, power cap) applied its previous command.
     settings : MfcNaturalSettings, optional
         Default: the peugeot406 tuning (:data:`flatfree.scenarios.NATURAL_SETTINGS`); use
         ``alpha_lat`` of the order of your car's steer gain (``natural_settings("dallara_av21")``).
@@ -769,7 +771,8 @@ class NaturalOutputController:
     >>> torque, steer = ctrl.step(vx=20.0, r=0.0, e_y=0.01, kappa=0.0, vx_ref=20.0)
     """
 
-    __slots__ = ("_arrays", "_act", "_dt", "_settings", "_meas", "_ref", "_prev", "_applied")
+    __slots__ = ("_arrays", "_act", "_act_p", "_act_s", "_dt", "_settings", "_meas", "_ref",
+                 "_prev", "_vx_prev")
 
     def __init__(self, *, dt: float, actuators: ActuatorParams,
                  settings: MfcNaturalSettings | None = None) -> None:
@@ -785,9 +788,9 @@ class NaturalOutputController:
         self._settings = settings
         self._meas = np.full(len(MEAS), np.nan)
         self._ref = np.zeros(len(CREF))
-        self._arrays = build_mfc("mfc-natural", settings, dt=self._dt, actuators=actuators)
+        self._act_p = actuators.to_array(self._dt)
         self._prev = np.zeros(2)  # previous commands (torque, steer)
-        self._applied = np.zeros(2)  # what the actuators applied over the last period
+        self.reset()
 
     @property
     def settings(self) -> MfcNaturalSettings:
@@ -801,8 +804,9 @@ class NaturalOutputController:
         torque0 = finite("torque0", torque0, "N m")
         self._arrays = build_mfc("mfc-natural", self._settings, dt=self._dt,
                                  actuators=self._act, steer0=steer0, torque0=torque0)
+        self._act_s = actuator_state(self._act, self._dt, steer0=steer0, torque0=torque0)
         self._prev[:] = (torque0, steer0)
-        self._applied[:] = (torque0, steer0)
+        self._vx_prev = math.nan
 
     def step(self, *, vx: float, r: float, e_y: float, kappa: float, vx_ref: float,
              ax_ref: float = 0.0, e_y_ref: float = 0.0, e_y_ref_dot: float = 0.0,
@@ -826,17 +830,17 @@ class NaturalOutputController:
             Lateral-deviation reference and its derivatives (0: follow the path).
         applied_torque, applied_steer : float, optional
             What the actuators applied over the last period, if known (the estimators must see
-            the applied input); default: the previous command through the rate limit and the
-            saturation of ``actuators``. A NaN measurement is handled as in the engine (the
-            last output is held, the window keeps its time base).
+            the applied input); default: the previous command through the model of
+            ``actuators`` over one period (at the speed measured then). A NaN measurement is
+            handled as in the engine (the last output is held, the window keeps its time base).
         """
-        a = self._act
+        vx_then = vx if math.isnan(self._vx_prev) else self._vx_prev
+        model_tw, model_delta = actuate_step(self._prev[0], self._prev[1], vx_then,
+                                             self._act_p, self._act_s)
         if applied_steer is None:
-            lo = self._applied[1] - a.max_steer_rate * self._dt
-            hi = self._applied[1] + a.max_steer_rate * self._dt
-            applied_steer = min(max(min(max(self._prev[1], lo), hi), -a.max_steer), a.max_steer)
+            applied_steer = model_delta
         if applied_torque is None:
-            applied_torque = min(max(self._prev[0], -a.max_brake_torque), a.max_drive_torque)
+            applied_torque = model_tw
         m = self._meas
         m[MEAS.VX], m[MEAS.R], m[MEAS.E_Y] = vx, r, e_y
         c = self._ref
@@ -846,6 +850,6 @@ class NaturalOutputController:
         tw, delta = vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon,
                                  z.f_lat, z.f_yaw, m, c, float(applied_torque),
                                  float(applied_steer))
-        self._applied[:] = (applied_torque, applied_steer)
         self._prev[:] = (tw, delta)
+        self._vx_prev = vx
         return float(tw), float(delta)
