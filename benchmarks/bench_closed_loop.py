@@ -35,6 +35,7 @@ import resource, sys, tracemalloc
 from flatfree.scenarios import named_scenario
 from flatfree.scenario import Timing, ReferenceSpec
 from flatfree.simulation import simulate
+imported = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 # warm-up in this process (loads the compiled kernels from numba's cache)
 simulate(named_scenario("paper-noise-free", duration_s=0.5))
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
@@ -46,7 +47,8 @@ tracemalloc.start()
 tr = simulate(sc)
 heap = tracemalloc.get_traced_memory()[1] / 2**20
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-print(f"{base:.1f} {peak:.1f} {heap:.1f} {tr.duration:.1f} {len(tr)} {tr.status.value}")
+print(f"{imported:.1f} {base:.1f} {peak:.1f} {heap:.1f} {tr.duration:.1f} {len(tr)} "
+      f"{tr.status.value}")
 """
 
 
@@ -96,8 +98,9 @@ def main() -> None:
     print("3. peak memory, 10-minute run logged at 100 Hz (fresh process)")
     out = subprocess.run([sys.executable, "-c", _MEM_SCRIPT], capture_output=True, text=True,
                          check=True).stdout.split()
-    base, peak, heap, dur, rows, status = out
-    print(f"  peak RSS {peak} MB (before the run, after imports and a warm-up run: {base} MB); "
+    imported, base, peak, heap, dur, rows, status = out
+    print(f"  peak RSS {peak} MB (after the imports: {imported} MB; after a warm-up run too, "
+          f"before the run: {base} MB); "
           f"peak of the run's own allocations (tracemalloc: numpy and Python) {heap} MB "
           f"(simulated {dur} s, {rows} logged rows, {status})")
 

@@ -9,7 +9,8 @@ Run as a script::
 
 It prints, per track, the range of the max lateral error (after the 1 s start-up, whole laps)
 over the seeds that completed, which seeds left the track and when, the worst max yaw error,
-and the noise-free run. These are the tables of benchmarks/README.md "Closed loop" (session 2);
+and the noise-free run (max lateral error and steer-rate RMS, which shows a limit cycle at the
+steer-rate limit). These are the tables of benchmarks/README.md "Closed loop" (session 2);
 the sensor noise is the only thing that changes between seeds. Nothing here is a test: the
 reviewed per-seed bounds are tests/paper_scenario_bounds.json. A whole sweep (70 laps) takes
 about a minute on one core.
@@ -20,6 +21,8 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import time
+
+import numpy as np
 
 from flatfree.metrics import compute_metrics
 from flatfree.scenarios import named_scenario
@@ -40,7 +43,7 @@ def _value(text: str) -> float | int | str | bool:
 
 def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict,
          drive_limit: bool):
-    sc = named_scenario(name, track=track, seed=seed)
+    sc = named_scenario(name, track=None if name.startswith("recorded") else track, seed=seed)
     if drive_limit:
         sc = sc.with_(reference=dataclasses.replace(sc.reference, drive_limit=True))
     if vehicle:
@@ -53,7 +56,9 @@ def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict,
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenario", default="paper", help="a track scenario name (default paper)")
+    ap.add_argument("--scenario", default="paper",
+                    help="paper (default), paper-flatness, ... or recorded (then --tracks is "
+                         "ignored: the recording's reference)")
     ap.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
     ap.add_argument("--tracks", default=",".join(track_names()),
                     help="comma-separated bundled tracks (default: all)")
@@ -73,7 +78,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"scenario {base}, seeds 0-{args.seeds - 1}, vehicle {args.vehicle or 'default'}, "
           f"settings {settings or 'default'}, drive limit {args.drive_limit}")
     t0 = time.perf_counter()
-    for track in args.tracks.split(","):
+    tracks = ["recording"] if base == "recorded" else args.tracks.split(",")
+    for track in tracks:
         maxima, left, yaw, speed = [], [], 0.0, 0.0
         for seed in range(args.seeds):
             tr, m = _run(base, track, seed, args.vehicle, settings, args.drive_limit)
@@ -83,12 +89,14 @@ def main(argv: list[str] | None = None) -> None:
                 speed = max(speed, m.speed_error_rms_mps)
             else:
                 left.append(f"{seed} ({m.status} at {tr.status_time:.1f} s)")
-        _, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings,
-                        args.drive_limit)
+        ctr, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings,
+                          args.drive_limit)
         span = (f"{100 * min(maxima):.2f}-{100 * max(maxima):.2f} cm" if maxima
                 else "none completed")
+        steer_rate = np.sqrt(np.mean((np.diff(ctr["steer"]) / np.diff(ctr.time)) ** 2))
         clean_txt = (f"{100 * clean.lateral_error_max_m:.2f} cm"
                      if clean.status == "completed" else clean.status)
+        clean_txt += f", steer rate {steer_rate:.2f} rad/s RMS"
         print(f"{track:10s} max lateral {span:16s} completed {len(maxima)}/{args.seeds}  "
               f"max yaw {yaw:.2f} deg  speed RMS <= {speed:.2f} m/s  noise-free {clean_txt}"
               + (f"  left: {', '.join(left)}" if left else ""), flush=True)

@@ -107,10 +107,11 @@ NATURAL_SETTINGS: dict[str, float | int | str] = {}
 #: to the car (MfcNaturalSettings: of the order of the steer's input gain, C_f / m: 65 for the
 #: peugeot406, 95 for the dallara_av21, which also turns twice as eagerly, C_f lf / Iz 129 vs
 #: 40 /s^2). With the peugeot's 30 the iPD sits below its stable range on the dallara: measured
-#: noise-free on the recording, steer-rate RMS 0.55 rad/s (a limit cycle at the 0.58 rad/s rate
-#: limit), 0.11 at alpha 45, 0.01 at 60 and 75; with noise on LVMS at 50 m/s, alpha 30 left the
-#: track for seeds 0-2 and 60 completed them (1.8-2.1 cm). 60 keeps the peugeot's alpha / (C_f / m)
-#: ratio within 1.4x and is the smallest value measured without the limit cycle.
+#: on LVMS (``benchmarks/sweep_seeds.py --vehicle dallara_av21 --set alpha_lat=A --tracks LVMS``),
+#: noise-free steer-rate RMS 0.55 rad/s at alpha 30 (a limit cycle at the 0.58 rad/s rate limit),
+#: 0.11 at 45, 0.04 at 60, 0.03 at 75; with noise alpha 30 left the track for seeds 0 and 2 (of
+#: 0-2) and 60 completed seeds 0-9 (1.6-2.0 cm). 60 keeps the peugeot's alpha / (C_f / m) ratio
+#: within 1.4x and is the smallest value measured without the limit cycle.
 DALLARA_NATURAL_SETTINGS: dict[str, float | int | str] = {**NATURAL_SETTINGS, "alpha_lat": 60.0}
 
 
