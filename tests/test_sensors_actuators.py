@@ -148,3 +148,32 @@ def test_drift_needs_its_correlation_time():
         SensorChannel(markov_std=0.01)
     with pytest.raises(ValueError, match="markov_tau_s = 0.0 s"):
         SensorChannel(markov_std=0.01, markov_tau_s=0.0)
+
+
+def test_channels_appended_in_a_new_block_keep_the_earlier_noise():
+    """SensorSuite.compile ``blocks``: the engine's accelerometers (``ax``, ``ay``) came after
+    the first six channels; drawn as a second block they leave the first six channels' noise
+    (white and drift) exactly as it was for the same seed, and they get noise of their own."""
+    first = ("x", "y", "psi", "vx", "vy", "r")
+    six = {
+        "x": SensorChannel(noise_std=0.001),
+        "psi": SensorChannel(noise_std=0.002, markov_std=0.01, markov_tau_s=1.0),
+        "r": SensorChannel(noise_std=0.003),
+    }
+    old = SensorSuite(six).compile(first, 0.001, 500, seed=7)
+    suite = SensorSuite({**six, "ay": SensorChannel(noise_std=0.05)})
+    new = suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7, blocks=(6, 2))
+    np.testing.assert_array_equal(new.noise[:, :6], old.noise)
+    assert np.all(new.noise[:, 6] == 0.0)  # ax has no channel: measured exactly
+    assert np.std(new.noise[:, 7]) == pytest.approx(0.05, rel=0.15)
+    # the white noise is the seed's generator's standard normals, row-major, block by block
+    # (drawn in chunks of rows: the same sequence as one draw), then each drift
+    n = 100_000  # more rows than one chunk
+    got = SensorSuite({"x": SensorChannel(noise_std=0.5), "r": SensorChannel(noise_std=2.0)}
+                      ).compile(first, 0.001, n, seed=3).noise
+    want = np.random.default_rng(3).standard_normal((n, 6)) * [0.5, 0, 0, 0, 0, 2.0]
+    np.testing.assert_array_equal(got, want)
+    one_block = suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7)
+    assert not np.array_equal(one_block.noise[:, :6], old.noise)
+    with pytest.raises(ValueError, match="blocks"):
+        suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7, blocks=(6, 1))

@@ -40,6 +40,8 @@ __all__ = ["SensorChannel", "SensorSuite", "CompiledSensors", "sense_step"]
 
 # columns of the compiled parameter table
 _NOISE, _BIAS, _PERIOD, _DELAY = 0, 1, 2, 3
+# rows of white noise drawn at a time (SensorSuite.compile)
+_CHUNK_ROWS = 1 << 15
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -123,10 +125,14 @@ class SensorSuite:
         })
 
     def compile(self, names: tuple[str, ...], dt_control: float, n_steps: int,
-                seed: int) -> CompiledSensors:
+                seed: int, *, blocks: tuple[int, ...] | None = None) -> CompiledSensors:
         """Arrays for the compiled loop, channels in the order of ``names``.
 
         A name without a channel is measured perfectly (no noise, bias, delay; every step).
+        ``blocks`` (sizes summing to ``len(names)``; default one block) splits the channels
+        into groups whose noise is drawn one group after the other from the seed's generator
+        (white, then drift): channels appended to ``names`` in a new block leave the noise of
+        the earlier ones unchanged for a given seed.
         """
         dt_control = positive("dt_control", dt_control, "s")
         unknown = set(self.channels) - set(names)
@@ -145,13 +151,29 @@ class SensorSuite:
                 1 if ch.rate_hz is None else max(1, round(1.0 / (ch.rate_hz * dt_control)))
             )
             table[i, _DELAY] = round(ch.delay_s / dt_control)
+        if blocks is None:
+            blocks = (n,)
+        if sum(blocks) != n or any(int(b) != b or b < 0 for b in blocks):
+            raise ValueError(f"blocks = {blocks!r}: sizes >= 0 summing to {n} channels")
         rng = np.random.default_rng(seed)
-        white = rng.standard_normal((int(n_steps), n))
-        noise = white * np.array([ch.noise_std for ch in chans])
-        for i, ch in enumerate(chans):
-            if ch.markov_std > 0.0:
-                noise[:, i] += _gauss_markov(rng, int(n_steps), ch.markov_std,
-                                             math.exp(-dt_control / ch.markov_tau_s))
+        n_steps = int(n_steps)
+        noise = np.empty((n_steps, n))
+        lo = 0
+        for size in blocks:
+            hi = lo + int(size)
+            std = np.array([ch.noise_std for ch in chans[lo:hi]])
+            # row-major standard normals of the block, drawn in chunks of rows (the same
+            # sequence as one (n_steps, size) draw, without a second array of the run's size:
+            # a 10-minute run at 1 kHz has 600 000 rows)
+            for r0 in range(0, n_steps, _CHUNK_ROWS):
+                r1 = min(r0 + _CHUNK_ROWS, n_steps)
+                noise[r0:r1, lo:hi] = rng.standard_normal((r1 - r0, hi - lo)) * std
+            for i in range(lo, hi):
+                ch = chans[i]
+                if ch.markov_std > 0.0:
+                    noise[:, i] += _gauss_markov(rng, int(n_steps), ch.markov_std,
+                                                 math.exp(-dt_control / ch.markov_tau_s))
+            lo = hi
         max_delay = int(table[:, _DELAY].max()) if n else 0
         history = np.full((n, max_delay + 1), np.nan)
         held = np.full(n, np.nan)
