@@ -290,6 +290,13 @@ def test_vehicle_option_takes_the_cars_natural_settings():
         DALLARA_NATURAL_SETTINGS
     flat = build_scenario("paper-flatness", vehicle="dallara_av21", cf_scale=0.5)
     assert flat.controller_settings == {"cf_scale": 0.5}
+    # the inertial-unit variant keeps its estimator with the new car's alpha
+    from flatfree.scenarios import natural_settings
+
+    imu = build_scenario("paper-imu", track="LVMS", vehicle="dallara_av21")
+    assert imu.controller_settings == natural_settings("dallara_av21", imu=True)
+    assert imu.controller_settings["estimator_lat"] == "imu"
+    assert imu.controller_settings["alpha_lat"] == 60.0
 
 
 # ------------------------------------------------------------------------------------------

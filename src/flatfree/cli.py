@@ -419,10 +419,12 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if vehicle is not None:
             changes["vehicle"] = vehicle
             natural = _scenarios_module().natural_settings
-            if (changes.get("controller", sc.controller) == "mfc-natural"
-                    and vehicle != sc.vehicle and settings == natural(sc.vehicle)):
-                # the base's settings are its car's tuning: take the new car's (alpha_lat)
-                changes["controller_settings"] = natural(vehicle)
+            if changes.get("controller", sc.controller) == "mfc-natural" and vehicle != sc.vehicle:
+                for imu in (False, True):
+                    if settings == natural(sc.vehicle, imu=imu):
+                        # the base's settings are its car's tuning: take the new car's
+                        # (alpha_lat), with the same estimator
+                        changes["controller_settings"] = natural(vehicle, imu=imu)
         if noise is not None:
             changes["noise"] = noise
         if seed is not None:

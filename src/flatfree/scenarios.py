@@ -15,6 +15,11 @@ comparison runs. Names (:data:`SCENARIO_NAMES`):
     The ``dallara_av21`` following the Las Vegas Motor Speedway recording (the paper's Figure 6
     compares the controller's steering with the recorded one: the trajectory of a run carries
     ``steer``; :func:`recorded_steer` gives the recording's steer on the same clock).
+``paper-imu``, ``recorded-imu``
+    ``paper`` and ``recorded`` with the natural-output controller's lateral F taken from the
+    inertial unit's accelerations instead of the algebraic estimator
+    (:data:`IMU_SETTINGS`: ``estimator_lat = "imu"``, no yaw damper; everything else, sensors
+    included, the same). Beyond the paper: its design is ``paper``.
 ``<name>-noise-free``
     Each of the above with every sensor noise-free (``noise = false``; rates, delays kept).
 
@@ -34,6 +39,14 @@ specific unit):
   an engineering estimate). ``vy``: INS velocity 0.02 m/s ([OX] class 0.014-0.02 m/s RMS).
 - ``r``: gyro, 0.1 deg/s = 1.7e-3 rad/s white at the sample rate (engineering estimate for an
   automotive-grade IMU; a tactical-grade one is 10x better).
+- ``ax``, ``ay``: the inertial unit's accelerations in body axes, in the road plane (the INS
+  removes gravity with its attitude), white noise of :data:`ACCEL_SIGMA_MPS2` = 0.05 m/s^2 per
+  1 kHz sample: MEMS accelerometers of automotive and INS grade have noise densities of the
+  order of 100-300 ug/sqrt(Hz), 0.02-0.07 m/s^2 over the 500 Hz band of 1 kHz samples (an
+  engineering estimate of the class, not a datasheet figure of one unit); ``ay`` also carries
+  a constant residual bias of :data:`ACCEL_BIAS_MPS2` = 0.01 m/s^2 (about 1 mg: an INS's
+  calibrated bias, or its attitude error of 0.06 deg leaking gravity; estimate). Used only
+  by ``estimator_lat = "imu"`` (``paper-imu``).
 - rates and delays: every channel at the controller's rate (the INS output up-sampled by its
   strapdown integration), no delay. Measured (Norisring, every channel noise-free): a 100 Hz
   sample-and-hold on every channel leaves the natural-output controller's max lateral error
@@ -70,6 +83,9 @@ __all__ = [
     "NATURAL_SETTINGS",
     "DALLARA_NATURAL_SETTINGS",
     "natural_settings",
+    "IMU_SETTINGS",
+    "ACCEL_SIGMA_MPS2",
+    "ACCEL_BIAS_MPS2",
     "SCENARIO_NAMES",
     "named_scenario",
     "paper_scenarios",
@@ -85,6 +101,10 @@ SECOND_TRACK = "Monza"
 RECORDING = "LVMS_23_01_04_B"
 #: Position noise [m] (1 sigma, white at the control rate; module docstring).
 POSITION_SIGMA_M = 0.001
+#: Accelerometer noise [m/s^2] (1 sigma, white at the control rate; module docstring).
+ACCEL_SIGMA_MPS2 = 0.05
+#: Residual lateral accelerometer bias [m/s^2] (module docstring).
+ACCEL_BIAS_MPS2 = 0.01
 
 #: Sensors of the ``paper`` scenarios (module docstring gives each sigma's source).
 REALISTIC_SENSORS = SensorSuite({
@@ -94,6 +114,8 @@ REALISTIC_SENSORS = SensorSuite({
     "vx": SensorChannel(noise_std=0.05),  # wheel-speed based, engineering estimate
     "vy": SensorChannel(noise_std=0.02),  # [OX] velocity class
     "r": SensorChannel(noise_std=1.7e-3),  # 0.1 deg/s, automotive IMU estimate
+    "ax": SensorChannel(noise_std=ACCEL_SIGMA_MPS2),  # MEMS accelerometer estimate
+    "ay": SensorChannel(noise_std=ACCEL_SIGMA_MPS2, bias=ACCEL_BIAS_MPS2),
 })
 
 #: Settings of the natural-output controller used by every named scenario: the defaults of
@@ -115,13 +137,23 @@ NATURAL_SETTINGS: dict[str, float | int | str] = {}
 DALLARA_NATURAL_SETTINGS: dict[str, float | int | str] = {**NATURAL_SETTINGS, "alpha_lat": 60.0}
 
 
-def natural_settings(vehicle: str) -> dict[str, float | int | str]:
+#: What ``-imu`` scenarios change in the natural-output controller's settings: the lateral F,
+#: e_y and e_y' from the measured e_y'' (MfcNaturalSettings.estimator_lat), and no yaw damper.
+#: The damper's term reaches the steer after the iPD, which with a lag-free F then sees it as
+#: a disturbance one step late: measured on the 7 bundled tracks (5 seeds each, realistic
+#: sensors), max lateral error 1.0-1.5 cm with the damper (k_r 0.4 s), 0.08-0.15 cm without;
+#: the weave the damper was for came from the algebraic estimator's noise and lag
+#: (benchmarks/README.md "Closed loop", "Acceleration-aided F").
+IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_damping": 0.0}
+
+
+def natural_settings(vehicle: str, *, imu: bool = False) -> dict[str, float | int | str]:
     """The natural-output controller's settings tuned for a bundled preset (a copy):
     :data:`DALLARA_NATURAL_SETTINGS` for ``dallara_av21``, :data:`NATURAL_SETTINGS` (the
-    peugeot406's, measured) for any other car. alpha_lat is the setting tied to the car."""
-    if vehicle == "dallara_av21":
-        return dict(DALLARA_NATURAL_SETTINGS)
-    return dict(NATURAL_SETTINGS)
+    peugeot406's, measured) for any other car; with ``imu`` overlaid by :data:`IMU_SETTINGS`.
+    alpha_lat is the setting tied to the car."""
+    base = DALLARA_NATURAL_SETTINGS if vehicle == "dallara_av21" else NATURAL_SETTINGS
+    return {**base, **(IMU_SETTINGS if imu else {})}
 
 _BASE = {
     "paper": ("mfc-natural", {}),
@@ -130,10 +162,12 @@ _BASE = {
     "paper-mismatch": ("flatness", {"cf_scale": 0.3, "cr_scale": 0.3}),
 }
 _RECORDED = "recorded"
+_IMU_SUFFIX = "-imu"
 
 #: Every name :func:`named_scenario` accepts.
 SCENARIO_NAMES: tuple[str, ...] = tuple(
-    n for base in (*_BASE, _RECORDED) for n in (base, f"{base}-noise-free")
+    n for base in (*_BASE, _RECORDED, "paper" + _IMU_SUFFIX, _RECORDED + _IMU_SUFFIX)
+    for n in (base, f"{base}-noise-free")
 )
 
 
@@ -161,21 +195,27 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         raise ValueError(f"scenario name = {name!r}: valid names: {', '.join(SCENARIO_NAMES)}")
     noise = not name.endswith("-noise-free")
     base = name.removesuffix("-noise-free")
+    imu = base.endswith(_IMU_SUFFIX)
+    base = base.removesuffix(_IMU_SUFFIX)
     timing = Timing(duration_s=duration_s)
     if base == _RECORDED:
         if track is not None:
             raise ValueError(f"track = {track!r}: the recorded scenario follows {RECORDING}")
         return Scenario(
-            name=name, description="dallara_av21 on the LVMS recording (paper Figure 6)",
+            name=name, description="dallara_av21 on the LVMS recording (paper Figure 6)"
+            + (" (lateral F from the inertial unit)" if imu else ""),
             vehicle="dallara_av21", plant="10dof", controller="mfc-natural",
-            controller_settings=natural_settings("dallara_av21"),
+            controller_settings=natural_settings("dallara_av21", imu=imu),
             reference=ReferenceSpec(track=None, recording=RECORDING), timing=timing,
             sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
     controller, settings = _BASE[base]
     if controller == "mfc-natural":
-        settings = dict(NATURAL_SETTINGS)
+        settings = natural_settings("peugeot406", imu=imu)
+    what = f"paper Section 4: {controller} on the 10DoF peugeot406"
+    if imu:
+        what += " (lateral F from the inertial unit, beyond the paper)"
     return Scenario(
-        name=name, description=f"paper Section 4: {controller} on the 10DoF peugeot406",
+        name=name, description=what,
         vehicle="peugeot406", plant="10dof", controller=controller,
         controller_settings=dict(settings),
         reference=ReferenceSpec(track=track or DEFAULT_TRACK), timing=timing,

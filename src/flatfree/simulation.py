@@ -20,7 +20,13 @@ controllers), the whole loop runs inside :func:`_closed_loop` (``numba.njit``): 
    the road friction under each axle comes from the friction patches at the axle's arc length;
 4. the plant advances one fixed RK4 step; signals are logged every ``log_every`` plant steps.
 
-Measured channels (sensor names): ``x``, ``y``, ``psi``, ``vx``, ``vy``, ``r``.
+Measured channels (sensor names): ``x``, ``y``, ``psi``, ``vx``, ``vy``, ``r``, ``ax``, ``ay``.
+``ax``, ``ay`` are the CoG's acceleration in the body axes in the road plane (an inertial
+unit's gravity-compensated output), the mean over the last plant step
+(``(v_k - v_{k-1}) / dt`` with the rotation term ``-/+ r v`` at mid-step). From the measured
+channels the loop forms the lateral deviation, heading error and, from the accelerations,
+velocities and the path's curvature at the measured foot point, the deviation's second
+derivative (:func:`lateral_deviation_acceleration`).
 
 After the loop, the lateral error and the yaw error are formed against the reference by arc
 length (:mod:`flatfree.metrics` states the definitions): ``lateral_error = e_y - e_y_ref(s)``
@@ -93,7 +99,7 @@ from flatfree.trajectory import Status, Trajectory
 from flatfree.vehicles import VehicleParams, load_vehicle
 
 __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "Prepared",
-           "flying_lap_speed",
+           "flying_lap_speed", "lateral_deviation_acceleration",
            "PythonController", "prepare", "simulate"]
 
 #: Half-width of the road used for the left-the-track check where the track gives no width [m].
@@ -107,7 +113,11 @@ DEFAULT_HALF_WIDTH_M = 7.5
 #: Engineering choice.
 REFERENCE_DT_S = 0.01
 #: Measured signals, in the order the sensors see them.
-SENSOR_CHANNELS = ("x", "y", "psi", "vx", "vy", "r")
+SENSOR_CHANNELS = ("x", "y", "psi", "vx", "vy", "r", "ax", "ay")
+_N_SENS = len(SENSOR_CHANNELS)
+# the accelerometers came after the first six channels: their noise is drawn after them, so a
+# seed gives x ... r the noise it gave before (SensorSuite.compile ``blocks``)
+_SENSOR_BLOCKS = (6, 2)
 
 _STATUS = {0: Status.COMPLETED, 1: Status.LEFT_TRACK, 2: Status.NON_FINITE}
 _PYTHON = int(KIND.PYTHON)
@@ -209,16 +219,38 @@ def _time_at(table, s, i):
 # loop state kept between calls of _closed_loop (a Python controller pauses the loop)
 (_LS_INIT, _LS_SEG, _LS_SEG_M, _LS_S_PREV, _LS_S_UNW, _LS_S_PREV_M, _LS_S_UNW_M, _LS_T_REF,
  _LS_T_CTRL, _LS_TW_APP, _LS_DE_APP, _LS_TW_CMD, _LS_DE_CMD, _LS_ME_Y, _LS_N_LOG,
- _LS_RESUME, _LS_ST_ROW) = range(17)
-_LS_N = 17
+ _LS_RESUME, _LS_ST_ROW, _LS_VX_P, _LS_VY_P, _LS_R_P) = range(20)
+_LS_N = 20
 _PAUSE = 3  # status code: a Python controller must give the commands for step k
 
 
 def _loop_scratch(n: int) -> tuple:
     """Work arrays of :func:`_closed_loop` for a plant of ``n`` states (allocated by the caller:
     the loop itself allocates nothing)."""
-    return (np.empty(n), np.empty((5, n)), np.empty((4, 6)), np.zeros(6), np.empty(6),
-            np.empty(6))
+    return (np.empty(n), np.empty((5, n)), np.empty((4, 6)), np.zeros(6), np.empty(_N_SENS),
+            np.empty(_N_SENS))
+
+
+@njit(cache=True)
+def lateral_deviation_acceleration(ax, ay, vx, vy, e_y, e_psi, kappa):
+    """Second time derivative of the lateral deviation from the path [m/s^2] (kinematics).
+
+    With the path's unit tangent t and left normal n at the foot point, e_y' = v . n and
+    n' = -kappa t s', s' = (v . t) / (1 - kappa e_y), so
+
+        e_y'' = a . n - kappa (v . t)^2 / (1 - kappa e_y),
+        a . n = ay cos(e_psi) + ax sin(e_psi),  v . t = vx cos(e_psi) - vy sin(e_psi),
+
+    for the CoG acceleration (ax, ay) and velocity (vx, vy) in body axes [m/s^2, m/s], the
+    lateral deviation e_y [m] (left positive), the heading error e_psi [rad] and the path
+    curvature kappa at the foot point [1/m]. No vehicle parameter; exact for a point moving
+    in the plane (checked against the second difference of a simulated e_y in
+    tests/test_simulation.py). Not finite where an input is not.
+    """
+    c = math.cos(e_psi)
+    sn = math.sin(e_psi)
+    vt = vx * c - vy * sn
+    return ay * c + ax * sn - kappa * vt * vt / (1.0 - kappa * e_y)
 
 
 @njit(**_JIT_LOOP)
@@ -237,7 +269,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     commands into ``ls``, sets ``ls[_LS_RESUME]`` and calls again with ``k0`` = the returned
     step.
     """
-    xn, work, diag, u, truth, meas6 = scratch
+    xn, work, diag, u, truth, meas_s = scratch
     n = x.shape[0]
     length = g[g.shape[0] - 1, 0]
     off = 3  # index of vx in both plant layouts (X, Y, psi, vx, vy, r, ...)
@@ -261,6 +293,9 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         ls[_LS_N_LOG] = 0.0
         ls[_LS_RESUME] = 0.0
         ls[_LS_ST_ROW] = 0.0
+        ls[_LS_VX_P] = math.nan  # no previous velocity: the first acceleration is unknown
+        ls[_LS_VY_P] = math.nan
+        ls[_LS_R_P] = math.nan
     seg = int(ls[_LS_SEG])
     seg_m = int(ls[_LS_SEG_M])
     s_prev = ls[_LS_S_PREV]
@@ -276,6 +311,10 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     me_y = ls[_LS_ME_Y]
     n_log = int(ls[_LS_N_LOG])
     st_row = int(ls[_LS_ST_ROW])
+    vx_p = ls[_LS_VX_P]
+    vy_p = ls[_LS_VY_P]
+    r_p = ls[_LS_R_P]
+    inv_dt = 1.0 / dt
     resume = ls[_LS_RESUME] == 1.0
     ls[_LS_RESUME] = 0.0
     status = 0
@@ -297,7 +336,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             status = 2
             break
         seg_old = seg
-        s, e_y, e_psi, _, seg = frenet_project(g, closed, truth[0], truth[1], truth[2], seg)
+        s, e_y, e_psi, kap, seg = frenet_project(g, closed, truth[0], truth[1], truth[2], seg)
         s_unw += progress(s, s_prev, length, closed)
         s_prev = s
         w = g[seg, _W_LEFT] if e_y > 0.0 else g[seg, _W_RIGHT]
@@ -310,12 +349,18 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             break  # the end of the reference path is reached: completed
         if c_ctrl == 0 and not (resume and k == k0):
             kc = k if ctrl_every == 1 else k // ctrl_every
-            sense_step(kc, truth, sens_table, noise, hist, held, meas6)
+            # the CoG's acceleration in body axes over the last plant step (module docstring)
+            r_m = 0.5 * (truth[5] + r_p)
+            truth[6] = (truth[3] - vx_p) * inv_dt - r_m * 0.5 * (truth[4] + vy_p)
+            truth[7] = (truth[4] - vy_p) * inv_dt + r_m * 0.5 * (truth[3] + vx_p)
+            sense_step(kc, truth, sens_table, noise, hist, held, meas_s)
             for f in range(nan_faults.shape[0]):
                 if nan_faults[f, 1] <= t < nan_faults[f, 2]:
-                    meas6[int(nan_faults[f, 0])] = math.nan
+                    meas_s[int(nan_faults[f, 0])] = math.nan
             for i in range(6):
-                meas[i] = meas6[i]
+                meas[i] = meas_s[i]
+            meas[8] = meas_s[6]
+            meas[9] = meas_s[7]
             if math.isfinite(meas[0]) and math.isfinite(meas[1]) and math.isfinite(meas[2]):
                 if (meas[0] == truth[0] and meas[1] == truth[1] and meas[2] == truth[2]
                         and seg_m == seg_old):
@@ -325,10 +370,11 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                     s_m = s
                     me_y = e_y
                     me_psi = e_psi
+                    me_kap = kap
                     seg_m = seg
                 else:
-                    s_m, me_y, me_psi, _, seg_m = frenet_project(g, closed, meas[0], meas[1],
-                                                                 meas[2], seg_m)
+                    s_m, me_y, me_psi, me_kap, seg_m = frenet_project(g, closed, meas[0],
+                                                                      meas[1], meas[2], seg_m)
                 s_unw_m += progress(s_m, s_prev_m, length, closed)
                 s_prev_m = s_m
                 if sched_path:
@@ -339,16 +385,22 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             else:
                 me_y = math.nan
                 me_psi = math.nan
+                me_kap = math.nan
                 t_ref += t - t_ctrl_last  # no pose: the schedule runs on with the clock
             t_ctrl_last = t
             meas[6] = me_y
             meas[7] = me_psi
+            meas[10] = lateral_deviation_acceleration(meas[8], meas[9], meas[3], meas[4],
+                                                      me_y, me_psi, me_kap)
             sample_reference(cref_table, t_ref, crow)
             if kind == _PYTHON:
                 status = _PAUSE  # hand the measurement to the Python controller
                 break
             tw_cmd, delta_cmd = vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon,
                                              f_lat, f_yaw, meas, crow[1:], tw_app, delta_app)
+        vx_p = truth[3]
+        vy_p = truth[4]
+        r_p = truth[5]
         c_ctrl += 1
         if c_ctrl == ctrl_every:
             c_ctrl = 0
@@ -418,6 +470,9 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     ls[_LS_ME_Y] = me_y
     ls[_LS_N_LOG] = n_log
     ls[_LS_ST_ROW] = st_row
+    ls[_LS_VX_P] = vx_p
+    ls[_LS_VY_P] = vy_p
+    ls[_LS_R_P] = r_p
     return status, k, n_log
 
 
@@ -644,7 +699,9 @@ class PythonController(Protocol):
     - ``t``: the clock time [s];
     - ``measurement``: a float array in the layout :class:`flatfree.controllers.vehicle.MEAS`
       (measured x, y, psi, vx, vy, r, then the lateral deviation and heading error of the
-      measured pose from the path; NaN where a sensor fault blanks a channel);
+      measured pose from the path, the measured accelerations ax, ay and the deviation's
+      second derivative formed from them (:func:`lateral_deviation_acceleration`); NaN where
+      a sensor fault blanks a channel);
     - ``reference``: a float array in the layout :class:`flatfree.controllers.vehicle.CREF`
       (speed, acceleration, flat-output and lateral-deviation references, path curvature,
       the path correction's d y2 / d r and -beta_ref'),
@@ -703,7 +760,8 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
     tpf = vehicle.tire_front.to_array()
     tpr = vehicle.tire_rear.to_array()
     n_ctrl = prep.n_steps // timing.control_every + 1
-    sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl, sc.seed)
+    sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl, sc.seed,
+                                        blocks=_SENSOR_BLOCKS)
     act_p = prep.actuators.to_array(timing.plant_dt_s)
     act_s = actuator_state(prep.actuators, timing.plant_dt_s, steer0=prep.steer0)
     patches = np.array([[p.s_start_m, p.s_end_m, p.mu] for p in sc.road.patches],
@@ -788,3 +846,4 @@ assert TenDoFState.roll == 8 and TenDoFState.pitch == 10 and TenDoFState.vx == 3
 assert TenDoFState.omega_fl == 12 and LOG.T_REF == 26 and len(LOG) == 27
 assert IST.F_HAT == 6 and KIND.MFC_NATURAL == 2 and KIND.PYTHON == _PYTHON == 3
 assert MEAS.E_Y == 6 and MEAS.E_PSI == 7 and CREF.VX == 0 and CREF.KAPPA == 8
+assert MEAS.AX == 8 and MEAS.AY == 9 and MEAS.EY_DDOT == 10 and _N_SENS == 8
