@@ -326,7 +326,12 @@ def test_demo_on_a_short_run_writes_report_and_figures(runner, tmp_path):
     n_png = len(list(figs.glob("*.png")))
     assert html.count('src="data:image/png;base64,') == n_png
     summary = json.loads((out / "metrics.json").read_text())
-    assert [r["label"] for r in summary["paper"]] == ["flatness", "mfc-flat", "mfc-natural"]
+    from flatfree.cli import IMU_LABEL
+
+    assert [r["label"] for r in summary["paper"]] == ["flatness", "mfc-flat", "mfc-natural",
+                                                      IMU_LABEL]
+    assert [r["scenario"] for r in summary["paper"]][-1] == "paper-imu"
+    assert [r["label"] for r in summary["recorded"]] == ["mfc-flat", "mfc-natural", IMU_LABEL]
     assert all("steer_rms_vs_recorded_deg" in r for r in summary["recorded"])
 
 

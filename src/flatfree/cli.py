@@ -45,6 +45,9 @@ JSON_KEYS = ("controller", "track", "status", "lateral_error_max_m", "lateral_er
 #: The paper's three controllers, in the paper's order, and the named scenario of each.
 PAPER_RUNS = (("flatness", "paper-flatness"), ("mfc-flat", "paper-mfc-flat"),
               ("mfc-natural", "paper"))
+#: Row label of the natural-output controller with the inertial unit's F (``paper-imu``,
+#: ``recorded-imu``), which ``demo`` runs beside the paper's three.
+IMU_LABEL = "mfc-natural, imu F (beyond the paper)"
 #: Default output folder of ``demo``.
 DEFAULT_OUT = "flatfree-out"
 
@@ -721,9 +724,10 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     Runs the paper's scenarios (the peugeot406 on the 10DoF model, noisy sensors) with the
     flatness-based controller, model-free control on flat outputs and on natural outputs,
     the flatness controller with 0.3 Cf, 0.3 Cr (Fig. 2), a braking-in-a-turn maneuver
-    (Fig. 3), and the model-free controllers on the recorded Las Vegas drive (Fig. 6); prints
-    our errors beside the paper's and writes OUT/report.html (self-contained) and
-    OUT/figures/*.png, *.svg.
+    (Fig. 3), and the model-free controllers on the recorded Las Vegas drive (Fig. 6); beside
+    them, beyond the paper, the natural-output controller with its lateral F from the inertial
+    unit (paper-imu, recorded-imu); prints our errors beside the paper's and writes
+    OUT/report.html (self-contained) and OUT/figures/*.png, *.svg.
     """
     from tqdm import tqdm
 
@@ -737,12 +741,15 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     tasks: list[tuple[str, str, Any]] = []  # (group, label, scenario)
     for ctrl, name in PAPER_RUNS:
         tasks.append(("paper", ctrl, _named(name + sfx, **kw)))
+    tasks.append(("paper", IMU_LABEL, _named("paper-imu" + sfx, **kw)))
     tasks.append(("mismatch", "flatness, 0.3 Cf, 0.3 Cr", _named("paper-mismatch" + sfx, **kw)))
     if not no_recorded:
         rec = _named("recorded" + sfx, seed=seed, duration_s=rec_duration_s)
         for ctrl in ("mfc-flat", "mfc-natural"):
             tasks.append(("recorded", ctrl, rec.with_(controller=ctrl, controller_settings={})
                           if ctrl != rec.controller else rec))
+        tasks.append(("recorded", IMU_LABEL,
+                      _named("recorded-imu" + sfx, seed=seed, duration_s=rec_duration_s)))
     # the desired path (and a check of the track name before the long part)
     try:
         ref_xy = _reference_xy(tasks[0][2])
