@@ -125,7 +125,7 @@ def test_scenario_new_writes_a_valid_commented_template(runner, tmp_path):
     sc = load_scenario(f)
     assert sc.controller == "mfc-natural" and sc.vehicle == "peugeot406"
     assert sc.reference.track == "Norisring" and sc.plant == "10dof"
-    assert set(sc.sensors.channels) == {"x", "y", "psi", "vx", "vy", "r"}
+    assert set(sc.sensors.channels) == {"x", "y", "psi", "vx", "vy", "r", "ax", "ay"}
     assert SCENARIO_TEMPLATE.count("#") > 30  # commented
     # refuses to overwrite; --force does
     res = _invoke(runner, ["scenario", "new", str(f)])

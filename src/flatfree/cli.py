@@ -251,7 +251,9 @@ seed = 0                    # seed of the sensor noise
 [controller_settings]       # the chosen controller's own settings; empty: its defaults
 # flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal)
 # mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat,
-#              wn_lat_speed, wn_lat_ratio (speed schedule), yaw_damping
+#              wn_lat_speed, wn_lat_ratio (speed schedule), yaw_damping,
+#              estimator_lat = "imu" (lateral F from the accelerometers; then
+#              yaw_damping = 0.0), imu_filter_s, observer_wn
 #              (dallara_av21: alpha_lat = 60.0)
 
 [reference]
@@ -274,7 +276,8 @@ log_dt_s = 0.01             # logging period (a whole multiple of plant_dt_s)
 startup_s = 1.0
 # duration_s = 60.0         # default: the reference's duration
 
-# one table per measured channel (x, y, psi, vx, vy, r): noise sigma, bias, rate, delay
+# one table per measured channel (x, y, psi, vx, vy, r, ax, ay): noise sigma, bias, rate,
+# delay; a channel without a table is exact
 [sensors.x]
 noise_std = 0.002           # [m]
 [sensors.y]
@@ -287,6 +290,11 @@ noise_std = 0.05            # [m/s]
 noise_std = 0.02            # [m/s]
 [sensors.r]
 noise_std = 0.0017          # [rad/s]
+[sensors.ax]
+noise_std = 0.05            # [m/s^2] (used by estimator_lat = "imu")
+[sensors.ay]
+noise_std = 0.05            # [m/s^2]
+bias = 0.01                 # [m/s^2]
 # rate_hz = 100.0
 # delay_s = 0.0
 
