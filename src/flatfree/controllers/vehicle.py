@@ -938,7 +938,10 @@ class NaturalOutputController:
         kappa : float
             Path curvature at the car's position [1/m] (the yaw damper's r - vx kappa).
         vx_ref, ax_ref : float
-            Speed reference [m/s] and its derivative [m/s^2].
+            Speed reference [m/s] and its time derivative [m/s^2], read at the car's arc
+            length. Give ``ax_ref``: it is the iP's feedforward; without it the speed lags the
+            profile by ``ax_ref / kp_lon`` (3 m/s at a 6 m/s^2 braking) and the car enters
+            corners too fast (examples/own_loop.py).
         e_y_ref, e_y_ref_dot, e_y_ref_ddot : float
             Lateral-deviation reference and its derivatives (0: follow the path).
         applied_torque, applied_steer : float, optional
