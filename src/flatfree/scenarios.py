@@ -51,7 +51,11 @@ specific unit):
   strapdown integration), no delay. Measured (Norisring, every channel noise-free): a 100 Hz
   sample-and-hold on every channel leaves the natural-output controller's max lateral error
   at 2.58 cm, a 10 ms delay on every channel gives 2.54 cm (with its first, constant gains;
-  2.6 cm with none of them); white position noise is what matters.
+  2.6 cm with none of them); white position noise is what matters. With the noise (session
+  3, Norisring and Spa, seeds 0-1): every channel at 100 Hz makes the algebraic design leave
+  the track in all four runs, while ``paper-imu`` holds 0.8-1.9 cm; 5 ms of delay on every
+  channel: 1.6-4.8 cm and one run left against 0.1-0.3 cm (benchmarks/README.md "Closed
+  loop", "Acceleration-aided F").
 
 What the noise does (measured, benchmarks/README.md "Closed loop"): the natural-output iPD
 (nu = 2, 100-sample window at 1 kHz) turns 1 mm of white position noise into steer jitter well
