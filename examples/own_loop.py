@@ -21,8 +21,7 @@ import numpy as np
 import flatfree as ff
 from flatfree.actuators import actuate_step, actuator_state
 from flatfree.models.tendof import TenDoF
-from flatfree.simulation import lateral_deviation_acceleration
-from flatfree.tracks import frenet_init, frenet_project
+from flatfree.tracks import frenet_init, frenet_project, lateral_deviation_acceleration
 
 
 def run(settings: ff.MfcNaturalSettings, seconds: float, seed: int = 0) -> dict[str, float]:

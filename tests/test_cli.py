@@ -383,3 +383,12 @@ def test_run_on_a_users_track_csv(runner, tmp_path):
     bad.write_text("# x_m,y_m,w_tr_right_m,w_tr_left_m\n0,0,5,5\n1,0,5,5\n2,oops,5,5\n")
     res = _invoke(runner, ["run", "--track", str(bad), *SHORT])
     assert res.exit_code == 2 and "line" in res.stderr and "bad.csv" in res.stderr
+
+
+def test_run_help_names_every_named_scenario(runner):
+    from flatfree.scenarios import SCENARIO_NAMES
+
+    res = _invoke(runner, ["run", "--help"])
+    text = " ".join(res.stdout.split())
+    for name in SCENARIO_NAMES:
+        assert name.removesuffix("-noise-free") in text, name

@@ -1,5 +1,5 @@
 """The acceleration-aided lateral estimator of the natural-output controller (``estimator_lat =
-"imu"``) and the measured e_y'' it uses (flatfree.simulation.lateral_deviation_acceleration).
+"imu"``) and the measured e_y'' it uses (flatfree.tracks.lateral_deviation_acceleration).
 
 Reference values: exact kinematics of a point on a circle and on a line (closed forms), the
 second difference of a simulated 10DoF lateral deviation, exactness of the observer and the
@@ -18,8 +18,8 @@ from flatfree.controllers.vehicle import MEAS, MfcNaturalSettings, NaturalOutput
 from flatfree.metrics import compute_metrics
 from flatfree.scenario import Fault, ReferenceSpec, Scenario, Timing
 from flatfree.scenarios import named_scenario
-from flatfree.simulation import lateral_deviation_acceleration, prepare, simulate
-from flatfree.tracks import frenet_init, frenet_project
+from flatfree.simulation import prepare, simulate
+from flatfree.tracks import frenet_init, frenet_project, lateral_deviation_acceleration
 from flatfree.trajectory import Status
 from flatfree.vehicles import load_vehicle
 

@@ -41,6 +41,7 @@ _API = {
     "load_track": "flatfree.tracks",
     "load_recording": "flatfree.tracks",
     "make_reference": "flatfree.tracks",
+    "lateral_deviation_acceleration": "flatfree.tracks",
     "SpeedLimits": "flatfree.tracks",
     # evaluation
     "Scenario": "flatfree.scenario",

@@ -92,6 +92,7 @@ def _named(name: str, **kw):
 Examples:
   flatfree demo --out flatfree-out      the paper reproduced, report in flatfree-out/report.html
   flatfree run --controller mfc-natural --track Monza --json
+  flatfree run paper-imu --track Spa    natural outputs, lateral F from the accelerometers
   flatfree run my_scenario.toml --seed 3 --out run1
   flatfree run --recording LVMS_23_01_04_B --json
   flatfree tracks
@@ -559,9 +560,10 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         duration_s, out_dir, as_json) -> None:
     """Run one closed-loop scenario and print its metrics.
 
-    SCENARIO is a TOML file (see `flatfree scenario new`) or a named scenario; without it the
-    paper's scenario (or, with --recording, the recorded one) is the base, and the options
-    change it.
+    SCENARIO is a TOML file (see `flatfree scenario new`) or a named scenario (paper,
+    paper-mfc-flat, paper-flatness, paper-mismatch, recorded, paper-imu, recorded-imu, each
+    also with -noise-free); without it the paper's scenario (or, with --recording, the
+    recorded one) is the base, and the options change it.
     """
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult, format_table

@@ -26,7 +26,7 @@ unit's gravity-compensated output), the mean over the last plant step
 (``(v_k - v_{k-1}) / dt`` with the rotation term ``-/+ r v`` at mid-step). From the measured
 channels the loop forms the lateral deviation, heading error and, from the accelerations,
 velocities and the path's curvature at the measured foot point, the deviation's second
-derivative (:func:`lateral_deviation_acceleration`).
+derivative (:func:`flatfree.tracks.lateral_deviation_acceleration`).
 
 After the loop, the lateral error and the yaw error are formed against the reference by arc
 length (:mod:`flatfree.metrics` states the definitions): ``lateral_error = e_y - e_y_ref(s)``
@@ -88,6 +88,7 @@ from flatfree.tracks import (
     SpeedLimits,
     frenet_init,
     frenet_project,
+    lateral_deviation_acceleration,
     load_track,
     make_reference,
     progress,
@@ -99,7 +100,7 @@ from flatfree.trajectory import Status, Trajectory
 from flatfree.vehicles import VehicleParams, load_vehicle
 
 __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "Prepared",
-           "flying_lap_speed", "lateral_deviation_acceleration",
+           "flying_lap_speed",
            "PythonController", "prepare", "simulate"]
 
 #: Half-width of the road used for the left-the-track check where the track gives no width [m].
@@ -229,28 +230,6 @@ def _loop_scratch(n: int) -> tuple:
     the loop itself allocates nothing)."""
     return (np.empty(n), np.empty((5, n)), np.empty((4, 6)), np.zeros(6), np.empty(_N_SENS),
             np.empty(_N_SENS))
-
-
-@njit(cache=True)
-def lateral_deviation_acceleration(ax, ay, vx, vy, e_y, e_psi, kappa):
-    """Second time derivative of the lateral deviation from the path [m/s^2] (kinematics).
-
-    With the path's unit tangent t and left normal n at the foot point, e_y' = v . n and
-    n' = -kappa t s', s' = (v . t) / (1 - kappa e_y), so
-
-        e_y'' = a . n - kappa (v . t)^2 / (1 - kappa e_y),
-        a . n = ay cos(e_psi) + ax sin(e_psi),  v . t = vx cos(e_psi) - vy sin(e_psi),
-
-    for the CoG acceleration (ax, ay) and velocity (vx, vy) in body axes [m/s^2, m/s], the
-    lateral deviation e_y [m] (left positive), the heading error e_psi [rad] and the path
-    curvature kappa at the foot point [1/m]. No vehicle parameter; exact for a point moving
-    in the plane (checked against the second difference of a simulated e_y in
-    tests/test_simulation.py). Not finite where an input is not.
-    """
-    c = math.cos(e_psi)
-    sn = math.sin(e_psi)
-    vt = vx * c - vy * sn
-    return ay * c + ax * sn - kappa * vt * vt / (1.0 - kappa * e_y)
 
 
 @njit(**_JIT_LOOP)
@@ -700,7 +679,8 @@ class PythonController(Protocol):
     - ``measurement``: a float array in the layout :class:`flatfree.controllers.vehicle.MEAS`
       (measured x, y, psi, vx, vy, r, then the lateral deviation and heading error of the
       measured pose from the path, the measured accelerations ax, ay and the deviation's
-      second derivative formed from them (:func:`lateral_deviation_acceleration`); NaN where
+      second derivative formed from them
+      (:func:`flatfree.tracks.lateral_deviation_acceleration`); NaN where
       a sensor fault blanks a channel);
     - ``reference``: a float array in the layout :class:`flatfree.controllers.vehicle.CREF`
       (speed, acceleration, flat-output and lateral-deviation references, path curvature,

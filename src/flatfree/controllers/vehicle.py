@@ -139,7 +139,7 @@ class MEAS(enum.IntEnum):
     AX = 8  # measured longitudinal acceleration of the CoG, body axes, road plane [m/s^2]
     AY = 9  # measured lateral acceleration of the CoG, body axes, road plane [m/s^2]
     EY_DDOT = 10  # e_y'' from the measured accelerations, velocities and pose (kinematics,
-    #               flatfree.simulation.lateral_deviation_acceleration) [m/s^2]
+    #               flatfree.tracks.lateral_deviation_acceleration) [m/s^2]
 
 
 class CREF(enum.IntEnum):
@@ -341,7 +341,7 @@ class MfcNaturalSettings:
         paper's): the algebraic estimator on the window of measured e_y and applied steer.
         ``"imu"``: from the measured lateral acceleration of the deviation, ``e_y''`` (column
         ``MEAS.EY_DDOT``, formed from an inertial unit's accelerations, the measured velocities
-        and the path: :func:`flatfree.simulation.lateral_deviation_acceleration`), the
+        and the path: :func:`flatfree.tracks.lateral_deviation_acceleration`), the
         ultra-local model read directly at the acceleration level,
         ``F = lp(e_y'') - alpha lp(delta_applied)``, with the same first-order filter ``lp``
         (``imu_filter_s``) on both so that the input's effect cancels in step; and e_y, e_y'
@@ -956,7 +956,7 @@ class NaturalOutputController:
             handled as in the engine (the last output is held, the window keeps its time base).
         e_y_ddot : float, optional
             Measured second derivative of the lateral deviation [m/s^2], from an inertial
-            unit (:func:`flatfree.simulation.lateral_deviation_acceleration`); used with
+            unit (:func:`flatfree.tracks.lateral_deviation_acceleration`); used with
             ``estimator_lat = "imu"`` (NaN, the default: the algebraic estimate).
         """
         vx_then = vx if math.isnan(self._vx_prev) else self._vx_prev

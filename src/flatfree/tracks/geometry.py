@@ -43,6 +43,7 @@ __all__ = [
     "FrenetProjector",
     "frenet_project",
     "frenet_init",
+    "lateral_deviation_acceleration",
     "project_points",
     "path_eval",
     "path_eval_many",
@@ -368,6 +369,28 @@ def frenet_project(g, closed, x, y, psi, seg):
     if closed and s >= g[n_seg, _S]:
         s -= g[n_seg, _S]
     return s, e_y, _wrap(psi - psi_p), kap, i
+
+
+@numba.njit(cache=True)
+def lateral_deviation_acceleration(ax, ay, vx, vy, e_y, e_psi, kappa):
+    """Second time derivative of the lateral deviation from the path [m/s^2] (kinematics).
+
+    With the path's unit tangent t and left normal n at the foot point, e_y' = v . n and
+    n' = -kappa t s', s' = (v . t) / (1 - kappa e_y), so
+
+        e_y'' = a . n - kappa (v . t)^2 / (1 - kappa e_y),
+        a . n = ay cos(e_psi) + ax sin(e_psi),  v . t = vx cos(e_psi) - vy sin(e_psi),
+
+    for the CoG acceleration (ax, ay) and velocity (vx, vy) in body axes [m/s^2, m/s], the
+    lateral deviation e_y [m] (left positive), the heading error e_psi [rad] and the path
+    curvature kappa at the foot point [1/m]. No vehicle parameter; exact for a point moving
+    in the plane (checked against the second difference of a simulated e_y in
+    tests/test_imu_estimator.py). Not finite where an input is not.
+    """
+    c = math.cos(e_psi)
+    sn = math.sin(e_psi)
+    vt = vx * c - vy * sn
+    return ay * c + ax * sn - kappa * vt * vt / (1.0 - kappa * e_y)
 
 
 @numba.njit(cache=True)
