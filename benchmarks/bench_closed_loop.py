@@ -7,7 +7,8 @@ Run as a script (``python benchmarks/bench_closed_loop.py``); it prints the figu
    natural-output model-free controller, plant and controller at 1 kHz, log at 100 Hz) after
    JIT warm-up, best of 3: real-time factor (target >= 1000x on one core) and time per plant
    step;
-2. the same with the ``paper`` sensors (noise drawn in advance), for the other two designs, on
+2. the same with the ``paper`` sensors (noise drawn in advance), with the inertial-unit
+   estimator (``paper-imu``), for the other two designs, on
    the 3DoF plant (the loop's cost without the 10DoF model) and through the Python door (a
    Python controller returning constants: the cost of one Python call per control step);
 3. peak memory of a 10-minute run logged at 100 Hz (target < 300 MB), measured in a fresh
@@ -100,7 +101,7 @@ def main() -> None:
           f"{platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     print("1-2. closed-loop lap of the default track, plant and controller at 1 kHz "
           "(real-time factor of the compiled loop; wall incl. preparation)")
-    for name in ("paper-noise-free", "paper", "paper-mfc-flat-noise-free",
+    for name in ("paper-noise-free", "paper", "paper-imu", "paper-mfc-flat-noise-free",
                  "paper-flatness-noise-free", "paper-noise-free:3dof",
                  "paper-noise-free:python"):
         rtf, wall, status = _best_rtf(name)
