@@ -186,3 +186,30 @@ def test_own_loop_example_runs_and_tracks():
     imu = mod.run(_imu(), 3.0)
     assert alg["max_lateral_m"] < 0.02 and imu["max_lateral_m"] < 0.005
     assert imu["max_lateral_m"] < alg["max_lateral_m"]
+
+
+@pytest.mark.parametrize("fault", [
+    Fault(kind="nan_measurement", channel="ax", t_start_s=2.0, duration_s=0.05),
+    Fault(kind="steer_limit", t_start_s=1.5, duration_s=1.0, value=0.005),
+    None,  # mu 0.5 on the first 80 m
+])
+def test_imu_faults_end_with_a_status_and_finite_numbers(fault):
+    """The issue's faults on the gentler test scenario of tests/test_simulation.py (3 m/s^2
+    lateral, 4 s) with the imu estimator: a status, finite numbers, the steer limit held."""
+    from flatfree.scenario import FrictionPatch, RoadSpec
+    from flatfree.scenarios import IMU_SETTINGS, REALISTIC_SENSORS
+
+    sc = Scenario(plant="10dof", controller="mfc-natural", controller_settings=IMU_SETTINGS,
+                  reference=ReferenceSpec(track="Norisring", a_lat_max=3.0),
+                  timing=Timing(duration_s=4.0), sensors=REALISTIC_SENSORS, seed=1)
+    if fault is None:
+        sc = sc.with_(road=RoadSpec(mu=1.0, patches=(FrictionPatch(s_start_m=0.0, s_end_m=80.0,
+                                                                     mu=0.5),)))
+    else:
+        sc = sc.with_(faults=(fault,))
+    tr = simulate(sc)
+    assert isinstance(tr.status, Status)
+    assert all(np.all(np.isfinite(tr[k])) for k in ("x", "y", "vx", "e_y", "steer", "torque"))
+    if fault is not None and fault.kind == "steer_limit":
+        window = (tr.time >= 1.5) & (tr.time < 2.5)
+        assert np.all(np.abs(tr["steer"][window]) <= 0.005 + 1e-12)
