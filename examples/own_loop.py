@@ -78,7 +78,7 @@ def run(settings: ff.MfcNaturalSettings, seconds: float, seed: int = 0) -> dict[
 def main(seconds: float = 10.0) -> None:
     for name, settings in (
             ("algebraic (the paper's)", ff.MfcNaturalSettings()),
-            ("imu", ff.MfcNaturalSettings(estimator_lat="imu", yaw_damping=0.0))):
+            ("imu", ff.MfcNaturalSettings(estimator_lat="imu", yaw_damping=0.2))):
         out = run(settings, seconds)
         print(f"{name:24s} max |e_y| after 1 s: {100 * out['max_lateral_m']:.2f} cm "
               f"(speed at the end {out['vx_end']:.1f} m/s)")

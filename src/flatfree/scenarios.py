@@ -18,8 +18,8 @@ comparison runs. Names (:data:`SCENARIO_NAMES`):
 ``paper-imu``, ``recorded-imu``
     ``paper`` and ``recorded`` with the natural-output controller's lateral F taken from the
     inertial unit's accelerations instead of the algebraic estimator
-    (:data:`IMU_SETTINGS`: ``estimator_lat = "imu"``, no yaw damper; everything else, sensors
-    included, the same). Beyond the paper: its design is ``paper``.
+    (:data:`IMU_SETTINGS`: ``estimator_lat = "imu"``, a lighter yaw damper; everything else,
+    sensors included, the same). Beyond the paper: its design is ``paper``.
 ``<name>-noise-free``
     Each of the above with every sensor noise-free (``noise = false``; rates, delays kept).
 
@@ -53,8 +53,8 @@ specific unit):
   at 2.58 cm, a 10 ms delay on every channel gives 2.54 cm (with its first, constant gains;
   2.6 cm with none of them); white position noise is what matters. With the noise (session
   3, Norisring and Spa, seeds 0-1): every channel at 100 Hz makes the algebraic design leave
-  the track in all four runs, while ``paper-imu`` holds 0.8-1.9 cm; 5 ms of delay on every
-  channel: 1.6-4.8 cm and one run left against 0.1-0.3 cm (benchmarks/README.md "Closed
+  the track in all four runs, while ``paper-imu`` holds 0.7-2.9 cm; 5 ms of delay on every
+  channel: 1.6-4.8 cm and one run left against 0.7-1.3 cm (benchmarks/README.md "Closed
   loop", "Acceleration-aided F").
 
 What the noise does (measured, benchmarks/README.md "Closed loop"): the natural-output iPD
@@ -142,13 +142,16 @@ DALLARA_NATURAL_SETTINGS: dict[str, float | int | str] = {**NATURAL_SETTINGS, "a
 
 
 #: What ``-imu`` scenarios change in the natural-output controller's settings: the lateral F,
-#: e_y and e_y' from the measured e_y'' (MfcNaturalSettings.estimator_lat), and no yaw damper.
-#: The damper's term reaches the steer after the iPD, which with a lag-free F then sees it as
-#: a disturbance one step late: measured on the 7 bundled tracks (5 seeds each, realistic
-#: sensors), max lateral error 1.0-1.5 cm with the damper (k_r 0.4 s), 0.08-0.15 cm without;
-#: the weave the damper was for came from the algebraic estimator's noise and lag
-#: (benchmarks/README.md "Closed loop", "Acceleration-aided F").
-IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_damping": 0.0}
+#: e_y and e_y' from the measured e_y'' (MfcNaturalSettings.estimator_lat), and a lighter yaw
+#: damper, k_r 0.2 s instead of 0.4. With the lag-free F the damper's term is a lateral
+#: disturbance the loop does not compensate, so the error grows with k_r (max on the 7 bundled
+#: tracks, realistic sensors, 10 seeds: 0.08-0.17 cm at 0, 0.42-1.48 at 0.15, 0.58-1.71 at
+#: 0.2); but without it the car spins where the yaw mode left by the CoG output loses its
+#: damping, braking hard at speed: with the drivable speed profile (``reference.drive_limit``)
+#: Spa's Eau Rouge is lost by every run at k_r 0 (noise-free too), by 2 of 30 at 0.15 and by
+#: none at 0.2 (every track, 30 seeds; benchmarks/README.md "Closed loop",
+#: "Acceleration-aided F").
+IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_damping": 0.2}
 
 
 def natural_settings(vehicle: str, *, imu: bool = False) -> dict[str, float | int | str]:

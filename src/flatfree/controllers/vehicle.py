@@ -351,21 +351,28 @@ class MfcNaturalSettings:
         second derivative (benchmarks/README.md "Closed loop", "Acceleration-aided F"). Where
         e_y'' or e_y is not finite (a sensor fault) the step falls back to the algebraic
         estimate, which keeps running, and the observer restarts from the next finite sample.
-        Use it with ``yaw_damping = 0`` (:data:`flatfree.scenarios.IMU_SETTINGS`): the damper's
-        term, added after the iPD, comes back through the applied steer into the next F and
-        is integrated (1.0-1.5 cm of lateral error with k_r 0.4 s instead of 0.1 cm).
+        With it the yaw damper's term, added after the iPD, is a lateral disturbance
+        ``alpha k_r (r - Vx kappa)`` that the lag-free loop does not compensate (it enters F
+        through the applied steer one step late): the lateral error grows with ``yaw_damping``
+        (0.1 cm at 0, 1.0-1.5 cm at the algebraic design's 0.4 s), while some damping is
+        needed where the yaw mode loses its own, braking hard at speed:
+        :data:`flatfree.scenarios.IMU_SETTINGS` uses 0.2 s (measured trade-off there).
     imu_filter_s : float
         Time constant [s] of the first-order filter on e_y'' and on the applied steer
-        (``estimator_lat = "imu"``). Insensitive below 5 ms (Norisring, Spa, LVMS, realistic
-        sensors, seeds 0-2: max lateral error 0.08-0.13 cm at 1 and 2 ms, 0.09-0.14 at 5);
-        slower filters lag: 0.10-0.18 cm at 10 ms, 0.14-0.24 at 20, 0.27-0.48 at 50.
+        (``estimator_lat = "imu"``). Insensitive below 5 ms (without the yaw damper, where the
+        estimator's own error shows: Norisring, Spa, LVMS, realistic sensors, seeds 0-2, max
+        lateral error 0.08-0.13 cm at 1 and 2 ms, 0.09-0.14 at 5); slower filters lag:
+        0.10-0.18 cm at 10 ms, 0.14-0.24 at 20, 0.27-0.48 at 50. With the scenarios' damper
+        (k_r 0.2 s) 1 to 20 ms all give 0.64-0.67 cm on Norisring.
     observer_wn : float
         Bandwidth [rad/s] of the complementary observer of (e_y, e_y') (double pole,
         ``estimator_lat = "imu"``): below it the estimate follows the measured e_y, above it
-        the integrated acceleration. 20 is the best measured with 1 mm of position noise
-        (Norisring and Spa, seeds 0-1, max lateral error 0.09-0.13 cm; 5: 0.21-0.26, 40:
-        0.12-0.19 with a steer-rate RMS of 0.21 rad/s); with 1 cm of white position noise 20
-        leaves the track and 5-10 hold 0.3-0.9 cm: lower it for a noisier position.
+        the integrated acceleration. Without the yaw damper 20 is the best measured with 1 mm
+        of position noise (Norisring and Spa, seeds 0-1, max lateral error 0.09-0.13 cm; 5:
+        0.21-0.26, 40: 0.12-0.19 with a steer-rate RMS of 0.21 rad/s), and with 1 cm of white
+        position noise 20 leaves the track where 5-10 hold 0.3-0.9 cm: lower it for a noisier
+        position. With the scenarios' damper (k_r 0.2 s) 5 to 40 all hold, 1 cm noise too
+        (benchmarks/README.md "Acceleration-aided F").
     feed_applied : bool
         Feed the estimators the inputs the actuators actually applied (rate limits, the power
         cap, faults, the yaw damper) instead of the controllers' own outputs (default True;
