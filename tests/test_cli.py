@@ -392,3 +392,10 @@ def test_run_help_names_every_named_scenario(runner):
     text = " ".join(res.stdout.split())
     for name in SCENARIO_NAMES:
         assert name.removesuffix("-noise-free") in text, name
+
+
+def test_run_prints_the_steer_lock_warning_as_one_line(runner):
+    res = _invoke(runner, ["run", "--vehicle", "dallara_av21", "--duration", "0.5", "--json"])
+    assert "warning: the reference's tightest curve (radius 9.9 m)" in res.stderr
+    assert "UserWarning" not in res.stderr
+    json.loads(res.stdout)  # stdout stays machine-readable

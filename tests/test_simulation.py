@@ -410,3 +410,20 @@ def test_natural_output_controller_holds_limits_and_refuses_bad_input():
         NaturalOutputController(dt=0.0, actuators=act)
     with pytest.raises(ValueError, match="steer0"):
         c.reset(steer0=math.nan)
+
+
+def test_a_curve_beyond_the_steer_lock_is_warned_about():
+    """The dallara_av21 (lock 0.279 rad, wheelbase 2.97 m) on Norisring, whose hairpin has a
+    9.9 m radius (kinematic steer 0.30 rad): warned; the peugeot406 (0.6 rad) there and the
+    dallara on LVMS (161 m): not."""
+    import warnings
+
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare
+
+    with pytest.warns(UserWarning, match=r"radius 9\.9 m.*dallara_av21's max_steer = 0\.279"):
+        prepare(named_scenario("paper").with_(vehicle="dallara_av21"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        prepare(named_scenario("paper"))
+        prepare(named_scenario("paper", track="LVMS").with_(vehicle="dallara_av21"))

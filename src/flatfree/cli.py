@@ -449,13 +449,22 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
 
 
 def _simulate(sc):
-    """simulate(sc); a ValueError (bad input, unsupported feature) becomes exit code 2."""
+    """simulate(sc); a ValueError (bad input, unsupported feature) becomes exit code 2, and the
+    library's warnings (e.g. a curve beyond the car's steer lock) are printed as one line each
+    on stderr, ``warning: ...``."""
+    import warnings
+
     from flatfree.simulation import simulate
 
     try:
-        return simulate(sc)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            tr = simulate(sc)
     except ValueError as exc:
         raise _fail(f"scenario {sc.name!r}, controller {sc.controller}: {exc}") from None
+    for w in caught:
+        _err(f"warning: {w.message}")
+    return tr
 
 
 def _time_axis(tr) -> np.ndarray:

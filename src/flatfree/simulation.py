@@ -55,6 +55,7 @@ import dataclasses
 import enum
 import math
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -571,6 +572,27 @@ def _reference(sc: Scenario, vehicle: VehicleParams) -> Reference:
                           vehicle=vehicle if spec.drive_limit else None)
 
 
+def _warn_if_beyond_steer_lock(ref: Reference, vehicle: VehicleParams) -> None:
+    """Warn when the path's tightest curve needs more road-wheel steer than the car has.
+
+    The kinematic steer L kappa is a lower bound of the steer a curve needs (the tyres' slip
+    angles add to it in an understeering car): above the car's lock no controller can follow
+    the path there (the dallara_av21, 0.279 rad, on the 9.5-10 m hairpins of Monza, Spa and
+    Norisring). A warning, not an error: the run is still a valid experiment.
+    """
+    kappa = np.abs(np.asarray(ref["kappa"], dtype=float))
+    if kappa.size == 0 or not np.isfinite(kappa).any():
+        return
+    k_max = float(np.nanmax(kappa))
+    need = vehicle.wheelbase * k_max
+    if need > vehicle.max_steer:
+        warnings.warn(
+            f"the reference's tightest curve (radius {1.0 / k_max:.1f} m) needs a road-wheel "
+            f"steer of at least {need:.3f} rad (wheelbase x curvature), beyond "
+            f"{vehicle.name}'s max_steer = {vehicle.max_steer:.3f} rad: the car cannot follow "
+            "the path there", UserWarning, stacklevel=3)
+
+
 def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepared:
     """Build the vehicle, reference, controller and initial state of a scenario.
 
@@ -579,6 +601,7 @@ def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepare
     """
     vehicle = load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides))
     ref = _reference(sc, vehicle)
+    _warn_if_beyond_steer_lock(ref, vehicle)
     bic = Bicycle3DoFParams.from_vehicle(vehicle)
     lat = reference_states_3dof(ref, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
                                 lf=bic.lf, lr=bic.lr)
