@@ -231,7 +231,7 @@ class _NaturalDoor:
 
     def __init__(self, sc):
         from flatfree.actuators import ActuatorParams
-        from flatfree.controllers.vehicle import NaturalOutputController
+        from flatfree.controllers.vehicle import NaturalOutputController, settings_from_mapping
         from flatfree.simulation import prepare
         from flatfree.vehicles import load_vehicle
 
@@ -239,7 +239,8 @@ class _NaturalDoor:
         self.calls = 0
         self.c = NaturalOutputController(
             dt=sc.timing.control_dt_s,
-            actuators=ActuatorParams.from_vehicle(load_vehicle(sc.vehicle)))
+            actuators=ActuatorParams.from_vehicle(load_vehicle(sc.vehicle)),
+            settings=settings_from_mapping("mfc-natural", sc.controller_settings))
 
     def reset(self):
         self.c.reset(steer0=self.steer0)
@@ -252,14 +253,19 @@ class _NaturalDoor:
         return self.c.step(vx=m[MEAS.VX], r=m[MEAS.R], e_y=m[MEAS.E_Y], kappa=r[CREF.KAPPA],
                            vx_ref=r[CREF.VX], ax_ref=r[CREF.AX], e_y_ref=r[CREF.EY],
                            e_y_ref_dot=r[CREF.EY_DOT], e_y_ref_ddot=r[CREF.EY_DDOT],
-                           applied_torque=applied[0], applied_steer=applied[1])
+                           applied_torque=applied[0], applied_steer=applied[1],
+                           e_y_ddot=m[MEAS.EY_DDOT])
 
 
-def test_python_controller_door_gives_the_compiled_result_bit_for_bit():
+@pytest.mark.parametrize("settings", [{}, {"estimator_lat": "imu", "yaw_damping": 0.2}],
+                         ids=["algebraic", "imu"])
+def test_python_controller_door_gives_the_compiled_result_bit_for_bit(settings):
     """The same kernel called from Python through the pausing loop, by the user-facing
     NaturalOutputController: identical trajectories (the engine, sensors, actuators and logging
-    are shared; only the door differs)."""
-    sc = _scenario(timing=Timing(duration_s=1.5, log_dt_s=0.01))
+    are shared; only the door differs). With the imu estimator this also checks that the
+    measured e_y'' handed to Python (and the loop's velocity memory across the pauses) is the
+    one the compiled controller sees."""
+    sc = _scenario(timing=Timing(duration_s=1.5, log_dt_s=0.01), controller_settings=settings)
     ref_run = simulate(sc)
     wrapped = _NaturalDoor(sc)
     py_run = simulate(sc, controller=wrapped)
@@ -269,6 +275,9 @@ def test_python_controller_door_gives_the_compiled_result_bit_for_bit():
         if k in ("f_lon", "f_lat"):  # controller internals: only the built-in door logs them
             continue
         np.testing.assert_array_equal(py_run[k], ref_run[k], err_msg=k)
+    if settings:  # the imu estimator acted (it is not the algebraic controller's fallback)
+        alg = simulate(_scenario(timing=Timing(duration_s=1.5, log_dt_s=0.01)))
+        assert not np.array_equal(alg["steer"], ref_run["steer"])
     with pytest.raises(ValueError, match="step"):
         simulate(sc, controller=object())
 
