@@ -217,3 +217,26 @@ def test_imu_faults_end_with_a_status_and_finite_numbers(fault):
     if fault is not None and fault.kind == "steer_limit":
         window = (tr.time >= 1.5) & (tr.time < 2.5)
         assert np.all(np.abs(tr["steer"][window]) <= 0.005 + 1e-12)
+
+
+@pytest.mark.parametrize("bias_wn", [0.0, 5.0])
+def test_accelerometer_bias_offset_and_its_observer_state(bias_wn):
+    """e_y = c t^2 measured exactly, e_y'' with a constant bias b. Without a bias state the
+    discrete observer settles at e-error (1 - 2 wo dt) b / wo^2 and e'-error 2 b / wo - b dt / 2
+    (derived from its predict / correct steps) and F at +b, so the steer is off by
+    -(b + kp (1 - 2 wo dt) b / wo^2 + kd (2 b / wo - b dt / 2)) / alpha; with the bias state
+    (``observer_bias_wn`` > 0) the offset vanishes (integral action on the innovation)."""
+    s = _imu(observer_bias_wn=bias_wn)
+    c = NaturalOutputController(dt=0.001, actuators=_ACT, settings=s)
+    c.reset(steer0=0.01)
+    cc, u0, dt, b = 0.001, 0.01, 0.001, 0.3  # e_y 2.5 cm at 5 s: the steer stays in range
+    kp, kd, wo = s.wn_lat**2, 2.0 * s.zeta_lat * s.wn_lat, s.observer_wn
+    for i in range(5000):
+        t = i * dt
+        out = c.step(vx=20.0, r=0.0, e_y=cc * t * t, kappa=0.0, vx_ref=20.0,
+                     applied_steer=u0, e_y_ddot=2.0 * cc + b)[1]
+    exact = -(2.0 * cc - s.alpha_lat * u0 + kp * cc * t * t + kd * 2.0 * cc * t) / s.alpha_lat
+    offset = 0.0 if bias_wn > 0.0 else -(b + kp * (1.0 - 2.0 * wo * dt) * b / wo**2
+                                         + kd * (2.0 * b / wo - 0.5 * b * dt)) / s.alpha_lat
+    assert abs(offset) > 0.01 or bias_wn > 0.0  # the effect is not small
+    assert out - exact == pytest.approx(offset, abs=1e-7)

@@ -373,6 +373,17 @@ class MfcNaturalSettings:
         position noise 20 leaves the track where 5-10 hold 0.3-0.9 cm: lower it for a noisier
         position. With the scenarios' damper (k_r 0.2 s) 5 to 40 all hold, 1 cm noise too
         (benchmarks/README.md "Acceleration-aided F").
+    observer_bias_wn : float
+        Pole [rad/s] of a third observer state, the accelerometers' constant bias in e_y''
+        (``estimator_lat = "imu"``; the poles are then -observer_wn twice and
+        -observer_bias_wn); 0 (default): no bias state. Without it a bias b leaves the steady
+        offset (b + kp b / wo^2 + kd 2 b / wo) / kp. A trade (``paper-imu``, Norisring and Spa,
+        seeds 0-2, max lateral error [cm]): with an uncalibrated MEMS unit's 0.5 m/s^2 (50 mg)
+        the bias state at 0 / 0.5 / 1 / 2 / 5 rad/s gives 2.5-3.2 / 1.6-1.8 / 1.3-1.4 /
+        0.9-1.3 / 0.6-1.3; but it also reads position noise as bias: with 1 cm of white
+        position noise 1 and 2 rad/s lose 2 of 6 runs (0 and 0.5: none), and with every
+        channel at 100 Hz 2 rad/s loses 1 of 6. Off by default (an INS's calibrated bias,
+        0.01 m/s^2, costs nothing); 0.5 for a raw accelerometer.
     feed_applied : bool
         Feed the estimators the inputs the actuators actually applied (rate limits, the power
         cap, faults, the yaw damper) instead of the controllers' own outputs (default True;
@@ -405,6 +416,7 @@ class MfcNaturalSettings:
     estimator_lat: str = "algebraic"
     imu_filter_s: float = 0.005
     observer_wn: float = 20.0
+    observer_bias_wn: float = 0.0
     feed_applied: bool = True
     schedule: str = "path"
 
@@ -418,6 +430,8 @@ class MfcNaturalSettings:
                              f"{', '.join(ESTIMATORS_LAT)}")
         positive("imu_filter_s", self.imu_filter_s, "s")
         positive("observer_wn", self.observer_wn, "rad/s")
+        if finite("observer_bias_wn", self.observer_bias_wn, "rad/s") < 0.0:
+            raise ValueError(f"observer_bias_wn = {self.observer_bias_wn!r} rad/s: must be >= 0")
         if not isinstance(self.feed_applied, bool):
             raise ValueError(f"feed_applied = {self.feed_applied!r}: must be true or false")
         positive("alpha_lon", self.alpha_lon, "(m/s^2)/(N m)")
@@ -622,7 +636,8 @@ class VehicleControllerArrays:
     #                   then mfc-natural only: zeta_lat, wn_lat, wn_lat_speed, wn_lat_ratio,
     #                   imu estimator on, filter pole, observer gains l1, l2, then the imu
     #                   estimator's state: filtered e_y'', filtered steer, e_y and e_y'
-    #                   estimates, started flag (_IMU_* indices)];
+    #                   estimates, started flag, then the bias gain l3 and the bias estimate
+    #                   (_IMU_* indices)];
     #                   mfc-flat a, b = lf m, Iz; flatness a = dt
     f_lon: np.ndarray  # denoiser kernel state of the speed loop's measurement (or a dummy)
     f_lat: np.ndarray  # denoiser kernel state of the lateral loop's measurement (or a dummy)
@@ -634,6 +649,8 @@ class VehicleControllerArrays:
             self.coef[13] = 0.0  # the path correction's integrator
         if self.coef.shape[0] > _IMU_STARTED:
             self.coef[_IMU_STARTED] = 0.0  # the imu estimator restarts from the next sample
+        if self.coef.shape[0] > _IMU_B:
+            self.coef[_IMU_B] = 0.0  # and forgets the bias of the previous run
         for on, ks in ((self.coef[0], self.f_lon), (self.coef[1], self.f_lat),
                        (self.coef[6], self.f_yaw)):
             if on:
@@ -710,14 +727,17 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                                 derivative_window=s.window_lat, **steer_lim)
         kind = KIND.MFC_NATURAL
         # the imu estimator's observer, discrete (predict with e_y'', correct with e_y): the
-        # gains of the double pole -observer_wn to first order in observer_wn dt
+        # gains of the poles -observer_wn (double) and -observer_bias_wn (the bias state), to
+        # first order in w dt: (s + wo)^2 (s + wb) = s^3 + l1 s^2 + l2 s + l3
         w_o = s.observer_wn
+        w_b = s.observer_bias_wn
         coef = np.array([float(s.denoise_lon > 0), float(s.denoise_lat > 0), 0.0, 0.0,
                          s.yaw_damping, float(s.feed_applied), float(s.denoise_yaw > 0),
                          *([0.0] * 7), s.zeta_lat, s.wn_lat, s.wn_lat_speed,
                          s.wn_lat_ratio, float(s.estimator_lat == "imu"),
-                         math.exp(-dt / s.imu_filter_s), 2.0 * w_o * dt, w_o * w_o * dt,
-                         0.0, 0.0, 0.0, 0.0, 0.0])
+                         math.exp(-dt / s.imu_filter_s), (2.0 * w_o + w_b) * dt,
+                         (w_o * w_o + 2.0 * w_o * w_b) * dt,
+                         0.0, 0.0, 0.0, 0.0, 0.0, w_o * w_o * w_b * dt, 0.0])
     elif controller == "mfc-flat":
         s2: MfcFlatSettings = settings
         positive("mass", mass, "kg")
@@ -743,6 +763,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
 # coef slots of the imu estimator (mfc-natural; MfcNaturalSettings.estimator_lat)
 _IMU_ON, _IMU_PHI, _IMU_L1, _IMU_L2 = 18, 19, 20, 21
 _IMU_A, _IMU_U, _IMU_E, _IMU_ED, _IMU_STARTED = 22, 23, 24, 25, 26
+_IMU_L3, _IMU_B = 27, 28  # bias gain, bias estimate (kept across restarts: the bias persists)
 _KP, _KD, _ALPHA, _DT_I, _L_I = int(IPAR.KP), int(IPAR.KD), int(IPAR.ALPHA), int(IPAR.DT), \
     int(IPAR.L)
 _K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
@@ -774,14 +795,18 @@ def _imu_lateral(p, s, coef, y, a, yr, yrd, yrdd, u_prev, u_alg):
         coef[_IMU_A] = phi * coef[_IMU_A] + (1.0 - phi) * a
         coef[_IMU_U] = phi * coef[_IMU_U] + (1.0 - phi) * u_prev
         dt = p[_DT_I]
-        # a is the mean e_y'' over the last period: predict, then correct with e_y
-        coef[_IMU_E] += dt * coef[_IMU_ED] + 0.5 * dt * dt * a
-        coef[_IMU_ED] += dt * a
+        # a is the mean e_y'' over the last period (less the bias estimate): predict, then
+        # correct with e_y
+        acc = a - coef[_IMU_B]
+        coef[_IMU_E] += dt * coef[_IMU_ED] + 0.5 * dt * dt * acc
+        coef[_IMU_ED] += dt * acc
         inn = y - coef[_IMU_E]
         coef[_IMU_E] += coef[_IMU_L1] * inn
         coef[_IMU_ED] += coef[_IMU_L2] * inn
+        coef[_IMU_B] -= coef[_IMU_L3] * inn
     alpha = p[_ALPHA]
-    f_hat = coef[_IMU_A] - alpha * coef[_IMU_U]  # ultra-local model at the filtered instant
+    # the ultra-local model at the filtered instant, the bias removed
+    f_hat = coef[_IMU_A] - coef[_IMU_B] - alpha * coef[_IMU_U]
     e = coef[_IMU_E] - yr
     e_dot = coef[_IMU_ED] - yrd
     s[_FH_I] = f_hat
