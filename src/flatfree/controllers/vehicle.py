@@ -900,7 +900,10 @@ class NaturalOutputController:
     Parameters
     ----------
     dt : float
-        Control period [s] (the settings were tuned at 1 ms).
+        Control period [s] (the settings were tuned at 1 ms; scale the windows with it).
+        Measured on the 10DoF with noise (benchmarks/README.md "Acceleration-aided F"): with
+        ``estimator_lat = "imu"`` 100 Hz still holds Norisring to 0.84 cm; the algebraic
+        estimator needs 500 Hz or more.
     actuators : ActuatorParams
         Steer and torque limits (``ActuatorParams.from_vehicle(load_vehicle(...))`` or your
         own). The controller clips to them and, unless told what was applied, assumes that
