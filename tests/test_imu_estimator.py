@@ -240,3 +240,18 @@ def test_accelerometer_bias_offset_and_its_observer_state(bias_wn):
                                          + kd * (2.0 * b / wo - 0.5 * b * dt)) / s.alpha_lat
     assert abs(offset) > 0.01 or bias_wn > 0.0  # the effect is not small
     assert out - exact == pytest.approx(offset, abs=1e-7)
+
+
+def test_imu_holds_a_lap_at_a_100_hz_control_rate():
+    """A typical ROS 2 loop rate: the controller at 100 Hz (sensors sampled there, windows
+    scaled to 0.1 s / 0.05 s), plant at 1 kHz: a whole noisy Norisring lap within the issue's
+    2 cm (measured 0.84 cm; the algebraic estimator leaves the track at this rate)."""
+    import dataclasses
+
+    sc = named_scenario("paper-imu")
+    sc = sc.with_(timing=dataclasses.replace(sc.timing, control_dt_s=0.01),
+                  controller_settings={**sc.controller_settings, "window_lat": 10,
+                                       "window_lon": 5})
+    m = compute_metrics(simulate(sc))
+    assert m.status == "completed"
+    assert m.lateral_error_max_m < 0.02
