@@ -125,3 +125,16 @@ def test_csv_export(tmp_path):
     data = np.loadtxt(path, delimiter=",", skiprows=2)
     np.testing.assert_array_equal(data[:, 0], tr.time)
     np.testing.assert_array_equal(data[:, 4], tr["vx_ref"])
+
+
+def test_course_error_metric_when_the_signal_is_there():
+    tr = _traj()
+    assert math.isnan(compute_metrics(tr).course_error_max_deg)
+    n = len(tr)
+    course = np.full(n, np.radians(0.2))
+    course[tr.time < 0.5] = np.radians(5.0)  # inside the start-up interval: excluded
+    course[-1] = np.radians(-0.3) + 2 * np.pi  # wrapped before the max
+    tr2 = Trajectory(time=tr.time, signals={**tr.signals, "course_error": course},
+                     units={**UNITS, "course_error": "rad"})
+    assert compute_metrics(tr2, startup_s=1.0).course_error_max_deg == pytest.approx(0.3)
+    assert compute_metrics(tr2, startup_s=0.0).course_error_max_deg == pytest.approx(5.0)

@@ -12,6 +12,11 @@ Definitions (the same for every controller, so that comparisons are fair):
   angle (direction of the CoG velocity) is yaw + beta, so a car whose velocity follows the path
   has the yaw ``path heading - beta_ref`` (the issue's "plus" is the same correction written
   with the opposite sign convention for the sideslip angle).
+- **course error** [rad, reported in deg; optional signal ``course_error``]: the direction of
+  the CoG velocity minus the path heading. No sideslip model enters it: it is the heading figure
+  a steering law controls when it keeps the CoG on the path, and yaw error = course error -
+  (beta - beta_ref) separates the controller's part from the car's sideslip against the
+  reference model's (benchmarks/README.md "Closed loop").
 - **speed error** [m/s]: ``vx - vx_ref``.
 - **steering rate** [rad/s]: the time derivative of the applied steer angle ``steer``
   (finite differences on the logged grid).
@@ -60,6 +65,7 @@ class Metrics:
     steer_rate_max_radps: float
     torque_rms_nm: float
     real_time_factor: float
+    course_error_max_deg: float = math.nan  # NaN when the trajectory has no course_error
 
     def to_dict(self) -> dict[str, float | str]:
         """Plain dict (JSON-ready; non-finite numbers become None)."""
@@ -84,7 +90,7 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
     ----------
     traj
         Needs the signals ``lateral_error`` [m], ``yaw_error`` [rad], ``vx`` and ``vx_ref``
-        [m/s], ``steer`` [rad] and ``torque`` [N m]. ``meta["real_time_factor"]`` is reported
+        [m/s], ``steer`` [rad] and ``torque`` [N m]; uses ``course_error`` [rad] if present. ``meta["real_time_factor"]`` is reported
         when present (NaN otherwise).
     startup_s
         Start-up interval excluded from the errors [s], counted from the first sample.
@@ -106,6 +112,8 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
     steer = traj["steer"][traj.time >= t0 + startup_s]
     t = part.time
     steer_rate = np.diff(steer) / np.diff(t) if t.size > 1 else np.empty(0)
+    course = (np.degrees(wrap_angle(part["course_error"])) if "course_error" in traj
+              else np.empty(0))
     return Metrics(
         status=traj.status.value,
         duration_s=traj.duration,
@@ -118,4 +126,5 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
         steer_rate_max_radps=_max_abs(steer_rate),
         torque_rms_nm=_rms(part["torque"]),
         real_time_factor=float(traj.meta.get("real_time_factor", math.nan)),
+        course_error_max_deg=_max_abs(course),
     )
