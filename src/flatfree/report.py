@@ -138,6 +138,7 @@ TABLE_COLUMNS: tuple[tuple[str, str], ...] = (
     ("lat_rms_cm", "lat rms cm"),
     ("yaw_max_deg", "yaw max deg"),
     ("yaw_rms_deg", "yaw rms deg"),
+    ("course_max_deg", "course max deg"),
     ("speed_rms", "v rms m/s"),
     ("rtf", "x realtime"),
     ("paper_lat", "paper lat"),
@@ -165,6 +166,9 @@ def comparison_rows(results: Sequence[RunResult]) -> list[dict[str, str]]:
             "lat_rms_cm": _fmt(m.lateral_error_rms_m if m else None, 100.0),
             "yaw_max_deg": _fmt(m.yaw_error_max_deg if m else None),
             "yaw_rms_deg": _fmt(m.yaw_error_rms_deg if m else None),
+            # heading of the CoG velocity against the path: the controller's part of the yaw
+            # error (metrics.py); the rest is the car's sideslip against the reference model's
+            "course_max_deg": _fmt(m.course_error_max_deg if m else None),
             "speed_rms": _fmt(m.speed_error_rms_mps if m else None),
             "rtf": _fmt(m.real_time_factor if m else None, digits=0),
             "paper_lat": claim.lateral_text() if claim else "-",
@@ -196,7 +200,8 @@ def format_table(results: Sequence[RunResult]) -> str:
                              for k, w in zip(keys, widths, strict=True)).rstrip())
     out.extend(notes)
     out.append("paper: max errors of its Section 4 (NOTES.md 'Results to compare with'); "
-               "agrees: our max error meets the paper's bound (completed runs only)")
+               "agrees: our max error meets the paper's bound (completed runs only); course: "
+               "CoG velocity direction vs path heading (the controller's part of the yaw error)")
     return "\n".join(out)
 
 
@@ -352,7 +357,10 @@ def write_report(
         "<p>Paper: the maximum errors of its Section 4 (10DoF Peugeot 406, recorded track), "
         "as corrected in NOTES.md &#8220;Results to compare with&#8221;. "
         "&#8220;agrees&#8221;: our maximum error meets the paper's bound (completed runs "
-        "only: a run that left the track is not compared).</p>",
+        "only: a run that left the track is not compared). &#8220;course&#8221;: the "
+        "direction of the CoG velocity against the path heading, the part of the yaw error a "
+        "steering law controls; the rest is the car's sideslip against the reference "
+        "model's.</p>",
     ]
     for n in notes:
         parts.append(f"<p class=\"note\">{_e(n)}</p>")
