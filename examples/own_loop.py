@@ -48,7 +48,7 @@ def run(settings: ff.MfcNaturalSettings, seconds: float, seed: int = 0) -> dict[
     prev = x[3:6].copy()
     u = np.array([0.0, steer0, 1.0, 1.0, 1.0, 1.0])  # torque, steer, road friction per wheel
     worst = 0.0
-    for k in range(int(round(seconds / dt))):
+    for k in range(round(seconds / dt)):
         # --- your state estimate (here: the model's state, 1 mm noise on the position) ---
         px, py = x[0] + 1e-3 * rng.standard_normal(), x[1] + 1e-3 * rng.standard_normal()
         vx, vy, r = x[3], x[4], x[5]

@@ -136,7 +136,7 @@ def test_imu_without_acceleration_is_the_algebraic_controller():
     for i in range(600):
         t = i * 0.001
         e_y = 0.05 * math.sin(3.0 * t)
-        kw = dict(vx=20.0, r=0.0, e_y=e_y, kappa=0.0, vx_ref=20.0)
+        kw = {"vx": 20.0, "r": 0.0, "e_y": e_y, "kappa": 0.0, "vx_ref": 20.0}
         a = alg.step(**kw)
         if i < 300:
             same.append((a, imu.step(**kw)))
