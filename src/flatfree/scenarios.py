@@ -53,8 +53,8 @@ specific unit):
   at 2.58 cm, a 10 ms delay on every channel gives 2.54 cm (with its first, constant gains;
   2.6 cm with none of them); white position noise is what matters. With the noise (session
   3, Norisring and Spa, seeds 0-1): every channel at 100 Hz makes the algebraic design leave
-  the track in all four runs, while ``paper-imu`` holds 0.7-2.9 cm; 5 ms of delay on every
-  channel: 1.6-4.8 cm and one run left against 0.7-1.3 cm (benchmarks/README.md "Closed
+  the track in all four runs, while ``paper-imu`` holds 0.7-3.2 cm; 5 ms of delay on every
+  channel: 1.6-4.8 cm and one run left against 0.6-1.3 cm (benchmarks/README.md "Closed
   loop", "Acceleration-aided F").
 
 What the noise does (measured, benchmarks/README.md "Closed loop"): the natural-output iPD
@@ -142,16 +142,19 @@ DALLARA_NATURAL_SETTINGS: dict[str, float | int | str] = {**NATURAL_SETTINGS, "a
 
 
 #: What ``-imu`` scenarios change in the natural-output controller's settings: the lateral F,
-#: e_y and e_y' from the measured e_y'' (MfcNaturalSettings.estimator_lat), and a lighter yaw
-#: damper, k_r 0.2 s instead of 0.4. With the lag-free F the damper's term is a lateral
-#: disturbance the loop does not compensate, so the error grows with k_r (max on the 7 bundled
-#: tracks, realistic sensors, 10 seeds: 0.08-0.17 cm at 0, 0.42-1.48 at 0.15, 0.58-1.71 at
-#: 0.2); but without it the car spins where the yaw mode left by the CoG output loses its
-#: damping, braking hard at speed: with the drivable speed profile (``reference.drive_limit``)
-#: Spa's Eau Rouge is lost by every run at k_r 0 (noise-free too), by 2 of 30 at 0.15 and by
-#: none at 0.2 (every track, 30 seeds; benchmarks/README.md "Closed loop",
-#: "Acceleration-aided F").
-IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_damping": 0.2}
+#: e_y and e_y' from the measured e_y'' (MfcNaturalSettings.estimator_lat), and a lighter,
+#: quicker yaw damper: k_r 0.2 s instead of 0.4, its input denoised over 20 samples instead of
+#: 50. With the lag-free F the damper's term is a lateral disturbance the loop does not
+#: compensate, so the error grows with k_r (max on the 7 bundled tracks, realistic sensors, 10
+#: seeds: 0.08-0.17 cm at 0, 0.42-1.48 at 0.15, 0.58-1.71 at 0.2); but without it the car spins
+#: where the yaw mode left by the CoG output loses its damping, braking hard at speed: with the
+#: drivable speed profile (``reference.drive_limit``) Spa's Eau Rouge is lost by every run at
+#: k_r 0 (noise-free too), by 2 of 30 at 0.15 and by none at 0.2. The 50-sample denoiser's
+#: lag lost LVMS's start (45 m/s into a braked S-bend) for 2 of 30 seeds; with 20, 90 of 90
+#: complete (and 210 of 210 on the 7 tracks with either profile). benchmarks/README.md
+#: "Closed loop", "Acceleration-aided F".
+IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_damping": 0.2,
+                                              "denoise_yaw": 20}
 
 
 def natural_settings(vehicle: str, *, imu: bool = False) -> dict[str, float | int | str]:

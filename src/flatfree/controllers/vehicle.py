@@ -356,7 +356,8 @@ class MfcNaturalSettings:
         through the applied steer one step late): the lateral error grows with ``yaw_damping``
         (0.1 cm at 0, 1.0-1.5 cm at the algebraic design's 0.4 s), while some damping is
         needed where the yaw mode loses its own, braking hard at speed:
-        :data:`flatfree.scenarios.IMU_SETTINGS` uses 0.2 s (measured trade-off there).
+        :data:`flatfree.scenarios.IMU_SETTINGS` uses 0.2 s on a 20-sample denoiser
+        (``denoise_yaw``; measured trade-off there).
     imu_filter_s : float
         Time constant [s] of the first-order filter on e_y'' and on the applied steer
         (``estimator_lat = "imu"``). Insensitive below 5 ms (without the yaw damper, where the
