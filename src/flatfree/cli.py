@@ -253,8 +253,9 @@ seed = 0                    # seed of the sensor noise
 # flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal)
 # mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat,
 #              wn_lat_speed, wn_lat_ratio (speed schedule), yaw_damping,
-#              estimator_lat = "imu" (lateral F from the accelerometers; then
-#              yaw_damping = 0.0), imu_filter_s, observer_wn
+#              estimator_lat = "imu" (lateral F from the accelerometers; the
+#              paper-imu scenario adds yaw_damping = 0.2, denoise_yaw = 20),
+#              imu_filter_s, observer_wn, observer_bias_wn
 #              (dallara_av21: alpha_lat = 60.0)
 
 [reference]
