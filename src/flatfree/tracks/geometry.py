@@ -96,6 +96,28 @@ def _wrap(a: float) -> float:
 
 
 @numba.njit(cache=True, inline="always")
+def _hermite_combine(g, i, h, h00, h10, h01, h11, d00, d10, d01, d11, e00, e10, e01, e11):
+    """Position and its first two arc-length derivatives on segment i from the Hermite basis
+    values (h..), their first (d..) and second (e..) derivatives [Hermite]; shared by
+    :func:`_hermite` and :func:`_hermite_inv`, which differ only in how they form the basis."""
+    x0 = g[i, _X]
+    y0 = g[i, _Y]
+    x1 = g[i + 1, _X]
+    y1 = g[i + 1, _Y]
+    tx0 = g[i, _TX] * h
+    ty0 = g[i, _TY] * h
+    tx1 = g[i + 1, _TX] * h
+    ty1 = g[i + 1, _TY] * h
+    px = h00 * x0 + h10 * tx0 + h01 * x1 + h11 * tx1
+    py = h00 * y0 + h10 * ty0 + h01 * y1 + h11 * ty1
+    dx = d00 * x0 + d10 * g[i, _TX] + d01 * x1 + d11 * g[i + 1, _TX]
+    dy = d00 * y0 + d10 * g[i, _TY] + d01 * y1 + d11 * g[i + 1, _TY]
+    ddx = e00 * x0 + e10 * g[i, _TX] + e01 * x1 + e11 * g[i + 1, _TX]
+    ddy = e00 * y0 + e10 * g[i, _TY] + e01 * y1 + e11 * g[i + 1, _TY]
+    return px, py, dx, dy, ddx, ddy
+
+
+@numba.njit(cache=True, inline="always")
 def _hermite(g, i, sigma, h):
     """Position, first and second derivative w.r.t. arc length on segment i [Hermite]."""
     t = sigma / h
@@ -113,21 +135,8 @@ def _hermite(g, i, sigma, h):
     e10 = (6.0 * t - 4.0) / h
     e01 = (-12.0 * t + 6.0) / (h * h)
     e11 = (6.0 * t - 2.0) / h
-    x0 = g[i, _X]
-    y0 = g[i, _Y]
-    x1 = g[i + 1, _X]
-    y1 = g[i + 1, _Y]
-    tx0 = g[i, _TX] * h
-    ty0 = g[i, _TY] * h
-    tx1 = g[i + 1, _TX] * h
-    ty1 = g[i + 1, _TY] * h
-    px = h00 * x0 + h10 * tx0 + h01 * x1 + h11 * tx1
-    py = h00 * y0 + h10 * ty0 + h01 * y1 + h11 * ty1
-    dx = d00 * x0 + d10 * g[i, _TX] + d01 * x1 + d11 * g[i + 1, _TX]
-    dy = d00 * y0 + d10 * g[i, _TY] + d01 * y1 + d11 * g[i + 1, _TY]
-    ddx = e00 * x0 + e10 * g[i, _TX] + e01 * x1 + e11 * g[i + 1, _TX]
-    ddy = e00 * y0 + e10 * g[i, _TY] + e01 * y1 + e11 * g[i + 1, _TY]
-    return px, py, dx, dy, ddx, ddy
+    return _hermite_combine(g, i, h, h00, h10, h01, h11, d00, d10, d01, d11, e00, e10, e01,
+                            e11)
 
 
 @numba.njit(cache=True, inline="always")
@@ -163,21 +172,8 @@ def _hermite_inv(g, i, sigma, h, inv_h):
     e10 = (6.0 * t - 4.0) * inv_h
     e01 = (-12.0 * t + 6.0) * inv_h2
     e11 = (6.0 * t - 2.0) * inv_h
-    x0 = g[i, _X]
-    y0 = g[i, _Y]
-    x1 = g[i + 1, _X]
-    y1 = g[i + 1, _Y]
-    tx0 = g[i, _TX] * h
-    ty0 = g[i, _TY] * h
-    tx1 = g[i + 1, _TX] * h
-    ty1 = g[i + 1, _TY] * h
-    px = h00 * x0 + h10 * tx0 + h01 * x1 + h11 * tx1
-    py = h00 * y0 + h10 * ty0 + h01 * y1 + h11 * ty1
-    dx = d00 * x0 + d10 * g[i, _TX] + d01 * x1 + d11 * g[i + 1, _TX]
-    dy = d00 * y0 + d10 * g[i, _TY] + d01 * y1 + d11 * g[i + 1, _TY]
-    ddx = e00 * x0 + e10 * g[i, _TX] + e01 * x1 + e11 * g[i + 1, _TX]
-    ddy = e00 * y0 + e10 * g[i, _TY] + e01 * y1 + e11 * g[i + 1, _TY]
-    return px, py, dx, dy, ddx, ddy
+    return _hermite_combine(g, i, h, h00, h10, h01, h11, d00, d10, d01, d11, e00, e10, e01,
+                            e11)
 
 
 @numba.njit(cache=True, inline="always")
