@@ -255,3 +255,26 @@ def test_imu_holds_a_lap_at_a_100_hz_control_rate():
     m = compute_metrics(simulate(sc))
     assert m.status == "completed"
     assert m.lateral_error_max_m < 0.02
+
+
+def test_the_loop_forms_ey_ddot_only_for_controllers_that_read_it():
+    from flatfree.controllers.vehicle import (
+        KIND,
+        FlatnessSettings,
+        build_flatness,
+        build_mfc,
+        wants_ey_ddot,
+    )
+    from flatfree.models.bicycle3dof import Bicycle3DoFParams
+
+    def arrays(settings):
+        return build_mfc("mfc-natural", settings, dt=0.001, actuators=_ACT)
+
+    alg = arrays(MfcNaturalSettings())
+    imu = arrays(_imu())
+    flat = build_flatness(FlatnessSettings(), dt=0.001, model=Bicycle3DoFParams.from_vehicle(
+        load_vehicle("peugeot406")))
+    assert wants_ey_ddot(imu.kind, imu.coef)
+    assert not wants_ey_ddot(alg.kind, alg.coef)
+    assert not wants_ey_ddot(flat.kind, flat.coef)
+    assert wants_ey_ddot(int(KIND.PYTHON), np.zeros(14))

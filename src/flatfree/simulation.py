@@ -75,6 +75,7 @@ from flatfree.controllers.vehicle import (
     build_mfc,
     settings_from_mapping,
     vehicle_step,
+    wants_ey_ddot,
     y2_per_r,
 )
 from flatfree.metrics import wrap_angle
@@ -295,6 +296,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     vy_p = ls[_LS_VY_P]
     r_p = ls[_LS_R_P]
     inv_dt = 1.0 / dt
+    form_ey_ddot = wants_ey_ddot(kind, coef)
     resume = ls[_LS_RESUME] == 1.0
     ls[_LS_RESUME] = 0.0
     status = 0
@@ -370,8 +372,9 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             t_ctrl_last = t
             meas[6] = me_y
             meas[7] = me_psi
-            meas[10] = lateral_deviation_acceleration(meas[8], meas[9], meas[3], meas[4],
-                                                      me_y, me_psi, me_kap)
+            if form_ey_ddot:
+                meas[10] = lateral_deviation_acceleration(meas[8], meas[9], meas[3], meas[4],
+                                                          me_y, me_psi, me_kap)
             sample_reference(cref_table, t_ref, crow)
             if kind == _PYTHON:
                 status = _PAUSE  # hand the measurement to the Python controller

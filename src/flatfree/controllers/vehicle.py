@@ -111,6 +111,7 @@ __all__ = [
     "FlatnessSettings",
     "SCHEDULES",
     "ESTIMATORS_LAT",
+    "wants_ey_ddot",
     "VehicleControllerArrays",
     "settings_from_mapping",
     "build_mfc",
@@ -770,6 +771,16 @@ _KP, _KD, _ALPHA, _DT_I, _L_I = int(IPAR.KP), int(IPAR.KD), int(IPAR.ALPHA), int
 _K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
 _FH_I, _E_I, _ED_I, _SAT_I, _RL_I = (int(IST.F_HAT), int(IST.E), int(IST.E_DOT),
                                      int(IST.SAT), int(IST.RATE))
+
+
+@njit(cache=True)
+def wants_ey_ddot(kind, coef) -> bool:
+    """Whether a controller reads the measured e_y'' (``MEAS.EY_DDOT``): a Python controller
+    (it gets every column) or the natural-output one with ``estimator_lat = "imu"``. The loop
+    forms the column only then (it costs a cosine, a sine and a division per control step)."""
+    if kind == 3:  # KIND.PYTHON
+        return True
+    return kind == 2 and coef.shape[0] > _IMU_STARTED and coef[_IMU_ON] != 0.0
 
 
 @njit(cache=True)
