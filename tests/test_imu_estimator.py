@@ -245,7 +245,8 @@ def test_accelerometer_bias_offset_and_its_observer_state(bias_wn):
 def test_imu_holds_a_lap_at_a_100_hz_control_rate():
     """A typical ROS 2 loop rate: the controller at 100 Hz (sensors sampled there, windows
     scaled to 0.1 s / 0.05 s), plant at 1 kHz: a whole noisy Norisring lap within the issue's
-    2 cm (measured 0.84 cm; the algebraic estimator leaves the track at this rate)."""
+    2 cm (measured 0.73 cm, benchmarks/imu_sensitivity.py --only rate; the algebraic
+    estimator leaves the track at this rate)."""
     import dataclasses
 
     sc = named_scenario("paper-imu")

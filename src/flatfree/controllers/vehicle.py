@@ -363,14 +363,17 @@ class MfcNaturalSettings:
         Time constant [s] of the first-order filter on e_y'' and on the applied steer
         (``estimator_lat = "imu"``). Insensitive below 5 ms (without the yaw damper, where the
         estimator's own error shows: Norisring, Spa, LVMS, realistic sensors, seeds 0-2, max
-        lateral error 0.08-0.13 cm at 1 and 2 ms, 0.09-0.14 at 5); slower filters lag:
-        0.10-0.18 cm at 10 ms, 0.14-0.24 at 20, 0.27-0.48 at 50. With the scenarios' damper
-        (k_r 0.2 s) 1 to 20 ms all give 0.64-0.67 cm on Norisring.
+        lateral error 0.08-0.13 cm at 1 and 2 ms, 0.09-0.13 at 5); slower filters lag:
+        0.10-0.18 cm at 10 ms, 0.14-0.24 at 20, 0.27-0.48 at 50 (``benchmarks/sweep_seeds.py
+        --scenario paper-imu --seeds 3 --tracks Norisring,Spa,LVMS --set yaw_damping=0 --set
+        denoise_yaw=50 --set imu_filter_s=T``). With the scenarios' damper 1 to 20 ms all give
+        0.64-0.67 cm on Norisring (``benchmarks/imu_sensitivity.py``).
     observer_wn : float
         Bandwidth [rad/s] of the complementary observer of (e_y, e_y') (double pole,
         ``estimator_lat = "imu"``): below it the estimate follows the measured e_y, above it
-        the integrated acceleration. Without the yaw damper 20 is the best measured with 1 mm
-        of position noise (Norisring and Spa, seeds 0-1, max lateral error 0.09-0.13 cm; 5:
+        the integrated acceleration (``benchmarks/imu_sensitivity.py``, with ``--set
+        yaw_damping=0 --set denoise_yaw=50`` for the damper-less figures). Without the yaw
+        damper 20 is the best measured with 1 mm of position noise (Norisring and Spa, seeds 0-1, max lateral error 0.09-0.13 cm; 5:
         0.21-0.26, 40: 0.12-0.19 with a steer-rate RMS of 0.21 rad/s), and with 1 cm of white
         position noise 20 leaves the track where 5-10 hold 0.3-0.9 cm: lower it for a noisier
         position. With the scenarios' damper (k_r 0.2 s) 5 to 40 all hold, 1 cm noise too
@@ -380,11 +383,11 @@ class MfcNaturalSettings:
         (``estimator_lat = "imu"``; the poles are then -observer_wn twice and
         -observer_bias_wn); 0 (default): no bias state. Without it a bias b leaves the steady
         offset (b + kp b / wo^2 + kd 2 b / wo) / kp. A trade (``paper-imu``, Norisring and Spa,
-        seeds 0-2, max lateral error [cm]): with an uncalibrated MEMS unit's 0.5 m/s^2 (50 mg)
-        the bias state at 0 / 0.5 / 1 / 2 / 5 rad/s gives 2.5-3.2 / 1.6-1.8 / 1.3-1.4 /
-        0.9-1.3 / 0.6-1.3; but it also reads position noise as bias: with 1 cm of white
-        position noise 1 and 2 rad/s lose 2 of 6 runs (0 and 0.5: none), and with every
-        channel at 100 Hz 2 rad/s loses 1 of 6. Off by default (an INS's calibrated bias,
+        seeds 0-2, max lateral error [cm]; ``benchmarks/imu_sensitivity.py --only bias``): with
+        an uncalibrated MEMS unit's 0.5 m/s^2 (50 mg) the bias state at 0 / 0.5 / 1 / 2 / 5
+        rad/s gives 2.5-3.2 / 1.6-1.9 / 1.3-1.4 / 0.9-1.3 / 0.6-1.3; but it also reads position
+        noise as bias: with 1 cm of white position noise 1 and 2 rad/s lose 2 of 6 runs and 5
+        loses 3 (0 and 0.5: none), and with every channel at 100 Hz 2 and 5 rad/s lose 1 of 6. Off by default (an INS's calibrated bias,
         0.01 m/s^2, costs nothing); 0.5 for a raw accelerometer.
     feed_applied : bool
         Feed the estimators the inputs the actuators actually applied (rate limits, the power
@@ -914,8 +917,9 @@ class NaturalOutputController:
     dt : float
         Control period [s] (the settings were tuned at 1 ms; scale the windows with it).
         Measured on the 10DoF with noise (benchmarks/README.md "Acceleration-aided F"): with
-        ``estimator_lat = "imu"`` 100 Hz still holds Norisring to 0.84 cm; the algebraic
-        estimator needs 500 Hz or more.
+        :data:`flatfree.scenarios.IMU_SETTINGS` 100 Hz still holds Norisring to 0.73 cm
+        (``benchmarks/imu_sensitivity.py --only rate``); the algebraic estimator needs 500 Hz
+        or more.
     actuators : ActuatorParams
         Steer and torque limits (``ActuatorParams.from_vehicle(load_vehicle(...))`` or your
         own). The controller clips to them and, unless told what was applied, assumes that
