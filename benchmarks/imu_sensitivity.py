@@ -47,6 +47,7 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
+from sweep_seeds import parse_settings  # benchmarks/ is the script's folder (sys.path[0])
 
 from flatfree.metrics import compute_metrics
 from flatfree.scenarios import REALISTIC_SENSORS, named_scenario, recorded_steer
@@ -220,27 +221,13 @@ _SECTIONS = {"sensitivity": sensitivity, "bias": bias, "rate": rate, "recorded":
              "yaw": yaw, "understeer": understeer}
 
 
-def _value(text: str):
-    for cast in (int, float):
-        try:
-            return cast(text)
-        except ValueError:
-            pass
-    return text
-
-
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=",".join(_SECTIONS), help="comma-separated sections")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="controller setting of every paper-imu run (repeatable)")
     args = ap.parse_args(argv)
-    settings = {}
-    for item in args.set:
-        key, sep, val = item.partition("=")
-        if not sep:
-            raise SystemExit(f"--set {item!r}: expected KEY=VALUE")
-        settings[key] = _value(val)
+    settings = parse_settings(args.set)
     t0 = time.perf_counter()
     for name in args.only.split(","):
         if name not in _SECTIONS:

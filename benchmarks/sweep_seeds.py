@@ -41,6 +41,17 @@ def _value(text: str) -> float | int | str | bool:
     return text
 
 
+def parse_settings(items: list[str]) -> dict:
+    """Controller settings from ``--set KEY=VALUE`` items (numbers and true/false typed)."""
+    settings = {}
+    for item in items:
+        key, sep, val = item.partition("=")
+        if not sep:
+            raise SystemExit(f"--set {item!r}: expected KEY=VALUE")
+        settings[key] = _value(val)
+    return settings
+
+
 def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict,
          drive_limit: bool):
     sc = named_scenario(name, track=None if name.startswith("recorded") else track, seed=seed)
@@ -68,12 +79,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="controller setting override (repeatable)")
     args = ap.parse_args(argv)
-    settings = {}
-    for item in args.set:
-        key, sep, val = item.partition("=")
-        if not sep:
-            raise SystemExit(f"--set {item!r}: expected KEY=VALUE")
-        settings[key] = _value(val)
+    settings = parse_settings(args.set)
     base = args.scenario.removesuffix("-noise-free")
     print(f"scenario {base}, seeds 0-{args.seeds - 1}, vehicle {args.vehicle or 'default'}, "
           f"settings {settings or 'default'}, drive limit {args.drive_limit}")
