@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 from flatfree._timing import best_time
-from flatfree.controllers.vehicle import vehicle_step
+from flatfree.controllers.vehicle import MEAS, vehicle_step
 from flatfree.models.tendof import simulate_kernel
 from flatfree.scenario import Timing
 from flatfree.scenarios import named_scenario
@@ -53,7 +53,7 @@ class _Recorder:
     def __init__(self, sc, n: int):
         self.prep = prepare(sc)
         self.c = self.prep.controller
-        self.meas = np.empty((n, 8))
+        self.meas = np.empty((n, len(MEAS)))
         self.cref = np.empty((n, self.prep.cref.shape[1] - 1))
         self.applied = np.empty((n, 2))
         self.i = 0
