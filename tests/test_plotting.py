@@ -76,6 +76,7 @@ def test_inputs_with_reference_and_a_missing_signal(ax):
     np.testing.assert_allclose(rec.get_ydata(), np.degrees(0.01 * t))
     (ln,) = _lines(ax, "a")
     np.testing.assert_allclose(ln.get_ydata(), np.degrees(runs["a"]["steer"]))
+    assert rec.get_zorder() > ln.get_zorder()  # a noisy run's band must not hide the record
     assert not _lines(ax, "b")
     assert "no steer: b" in [t.get_text() for t in ax.get_legend().get_texts()]
     with pytest.raises(ValueError, match="pair"):

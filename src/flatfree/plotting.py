@@ -241,17 +241,23 @@ def _reference_series(reference, what: str) -> tuple[np.ndarray, np.ndarray] | N
     return t, v
 
 
+def _reference_on_top(ax: Axes, t: np.ndarray, v: np.ndarray, label: str) -> None:
+    """A recorded input drawn black and dashed above the runs' traces: the commands of a noisy
+    run fill a band that hid the thick grey line under them (paper Fig. 6)."""
+    ax.plot(t, v, color="k", lw=1.4, ls="--", label=label, zorder=3)
+
+
 def plot_torque(ax: Axes, runs: Runs, *, reference=None,
                 reference_label: str = "reference") -> Axes:
     """Applied wheel torque [N m] of each run (paper Fig. 6, top).
 
     ``reference``: a pair ``(time [s], torque [N m])`` (e.g. a recorded or feed-forward
-    torque), drawn thick and grey.
+    torque), drawn on top of the runs (:func:`_reference_on_top`).
     """
     ref = _reference_series(reference, "reference")
-    if ref is not None:
-        ax.plot(ref[0], ref[1], color=REFERENCE_COLOR, lw=3, label=reference_label)
     missing = _signal_over_time(ax, runs, "torque", 1.0)
+    if ref is not None:
+        _reference_on_top(ax, ref[0], ref[1], reference_label)
     ax.set(xlabel="t [s]", ylabel="wheel torque [N m]", title="wheel torque")
     return _finish(ax, missing, "torque")
 
@@ -261,12 +267,13 @@ def plot_steer(ax: Axes, runs: Runs, *, reference=None,
     """Applied front road-wheel steer [deg] of each run (paper Fig. 6, bottom).
 
     ``reference``: a pair ``(time [s], steer [rad])``, e.g. the recorded driver's steer of a
-    recording (``Reference.extras["delta_recorded"]``), drawn thick and grey.
+    recording (``Reference.extras["delta_recorded"]``), drawn on top of the runs
+    (:func:`_reference_on_top`).
     """
     ref = _reference_series(reference, "reference")
-    if ref is not None:
-        ax.plot(ref[0], np.degrees(ref[1]), color=REFERENCE_COLOR, lw=3, label=reference_label)
     missing = _signal_over_time(ax, runs, "steer", math.degrees(1.0))
+    if ref is not None:
+        _reference_on_top(ax, ref[0], np.degrees(ref[1]), reference_label)
     ax.set(xlabel="t [s]", ylabel="steer [deg]", title="front road-wheel steer")
     return _finish(ax, missing, "steer")
 
