@@ -9,6 +9,7 @@ Run as a script::
 
 It prints, per track, the range of the max lateral error (after the 1 s start-up, whole laps)
 over the seeds that completed, which seeds left the track and when, the worst max yaw error,
+speed-error RMS and torque-rate RMS (a chattering torque; ``Metrics.torque_rate_rms_nmps``),
 and the noise-free run (max lateral error and steer-rate RMS, which shows a limit cycle at the
 steer-rate limit). These are the tables of benchmarks/README.md "Closed loop" (session 2);
 the sensor noise is the only thing that changes between seeds. Nothing here is a test: the
@@ -86,13 +87,14 @@ def main(argv: list[str] | None = None) -> None:
     t0 = time.perf_counter()
     tracks = ["recording"] if base == "recorded" else args.tracks.split(",")
     for track in tracks:
-        maxima, left, yaw, speed = [], [], 0.0, 0.0
+        maxima, left, yaw, speed, tq_rate = [], [], 0.0, 0.0, 0.0
         for seed in range(args.seeds):
             tr, m = _run(base, track, seed, args.vehicle, settings, args.drive_limit)
             if m.status == "completed":
                 maxima.append(m.lateral_error_max_m)
                 yaw = max(yaw, m.yaw_error_max_deg)
                 speed = max(speed, m.speed_error_rms_mps)
+                tq_rate = max(tq_rate, m.torque_rate_rms_nmps)
             else:
                 left.append(f"{seed} ({m.status} at {tr.status_time:.1f} s)")
         ctr, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings,
@@ -104,7 +106,8 @@ def main(argv: list[str] | None = None) -> None:
                      if clean.status == "completed" else clean.status)
         clean_txt += f", steer rate {steer_rate:.2f} rad/s RMS"
         print(f"{track:10s} max lateral {span:16s} completed {len(maxima)}/{args.seeds}  "
-              f"max yaw {yaw:.2f} deg  speed RMS <= {speed:.2f} m/s  noise-free {clean_txt}"
+              f"max yaw {yaw:.2f} deg  speed RMS <= {speed:.2f} m/s  torque rate RMS <= "
+              f"{tq_rate / 1e3:.1f} kN m/s  noise-free {clean_txt}"
               + (f"  left: {', '.join(left)}" if left else ""), flush=True)
     print(f"wall time {time.perf_counter() - t0:.0f} s")
 

@@ -45,6 +45,20 @@ def test_metrics_match_closed_forms():
     assert d["lateral_error_max_m"] == m.lateral_error_max_m and d["status"] == "completed"
 
 
+def test_torque_rate_is_the_rms_of_the_logged_differences():
+    tr = _traj()
+    w, dt = 2 * np.pi * 5.0, 1e-3
+    torque = -300.0 + 50.0 * np.sin(w * tr.time)
+    tr2 = Trajectory(time=tr.time, signals={**tr.signals, "torque": torque}, units=UNITS)
+    m = compute_metrics(tr2, startup_s=1.0)
+    # (sin(w (t + dt)) - sin(w t)) / dt = (2 / dt) sin(w dt / 2) cos(w (t + dt / 2)); the 1000
+    # differences after 1 s cover exactly 5 periods, where the mean of cos^2 is 1/2
+    amp = 50.0 * 2.0 * math.sin(w * dt / 2.0) / dt
+    assert m.torque_rate_rms_nmps == pytest.approx(amp / math.sqrt(2.0), rel=1e-9)
+    assert compute_metrics(tr, startup_s=1.0).torque_rate_rms_nmps == 0.0  # constant torque
+    assert m.to_dict()["torque_rate_rms_nmps"] == m.torque_rate_rms_nmps
+
+
 def test_startup_interval_is_excluded():
     tr = _traj()
     big = dict(tr.signals)

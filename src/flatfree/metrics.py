@@ -20,7 +20,9 @@ Definitions (the same for every controller, so that comparisons are fair):
 - **speed error** [m/s]: ``vx - vx_ref``.
 - **steering rate** [rad/s]: the time derivative of the applied steer angle ``steer``
   (finite differences on the logged grid).
-- **torque effort** [N m]: the RMS of the applied wheel torque ``torque``.
+- **torque effort** [N m]: the RMS of the applied wheel torque ``torque``; and its rate
+  [N m/s], the RMS of the time derivative of ``torque`` (finite differences on the logged grid,
+  as the steering rate), which shows a chattering torque that the RMS hides.
 
 All errors are taken over the whole run after a start-up interval ``startup_s`` (the same for
 every controller); the default is :data:`DEFAULT_STARTUP_S`.
@@ -66,6 +68,7 @@ class Metrics:
     torque_rms_nm: float
     real_time_factor: float
     course_error_max_deg: float = math.nan  # NaN when the trajectory has no course_error
+    torque_rate_rms_nmps: float = math.nan
 
     def to_dict(self) -> dict[str, float | str]:
         """Plain dict (JSON-ready; non-finite numbers become None)."""
@@ -112,6 +115,7 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
     steer = traj["steer"][traj.time >= t0 + startup_s]
     t = part.time
     steer_rate = np.diff(steer) / np.diff(t) if t.size > 1 else np.empty(0)
+    torque_rate = np.diff(part["torque"]) / np.diff(t) if t.size > 1 else np.empty(0)
     course = (np.degrees(wrap_angle(part["course_error"])) if "course_error" in traj
               else np.empty(0))
     return Metrics(
@@ -127,4 +131,5 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
         torque_rms_nm=_rms(part["torque"]),
         real_time_factor=float(traj.meta.get("real_time_factor", math.nan)),
         course_error_max_deg=_max_abs(course),
+        torque_rate_rms_nmps=_rms(torque_rate),
     )
