@@ -283,7 +283,17 @@ class MfcNaturalSettings:
     kp_lon : float
         Gain of the speed error [1/s] (closed-loop time constant 1 / kp_lon).
     window_lon : int
-        Samples of the F estimator window (speed loop).
+        Samples of the F estimator window (speed loop). 100 (0.1 s at 1 kHz, as the lateral
+        window): the speed loop's F is a first derivative of the measured Vx, so the window
+        sets the torque's chatter (wheel-speed noise 0.05 m/s at 1 kHz; the derivative's noise
+        falls as window^-1.5, down to the proportional term's kp sigma_v / alpha_lon = 50 N m),
+        and its lag (half the window) the speed error where F changes. With 50 (before
+        2026-11-22) the recorded drive's torque was mostly noise (RMS 509 N m, noise-free 296;
+        324 with 100) and the laps' torque-rate RMS was 18-25 kN m/s (8-11 with 100); the
+        price is the dallara_av21's speed-error RMS on LVMS, 0.025 -> 0.041 m/s (150: 0.060 for
+        a further 20 % less torque rate). Lateral errors and completion rates do not move
+        beyond the seeds' spread (100 seeds on Spa / Catalunya / LVMS: 56 / 97 / 93 completed
+        with 100, 58 / 92 / 92 with 50; benchmarks/README.md "Speed-loop window").
     alpha_lat : float
         Input gain of the lateral ultra-local model e_y'' = F + alpha delta [(m/s^2) / rad];
         of the order of C_f / m (the direct effect of the front lateral force).
@@ -309,7 +319,8 @@ class MfcNaturalSettings:
         up to 0.5 rad while the unloaded inner front wheel of the open differential spun up
         under full drive torque and 3 of 60 noisy Norisring laps left the track at its
         hairpin exit (49-54 s); with 1.5, 60 of 60 completed, max 1.34-2.65 cm (2: 1.41-2.59);
-        Spa 20/30 vs 18/30, Catalunya 27/30 both (benchmarks/README.md "Closed loop").
+        Spa 20/30 vs 18/30, Catalunya 27/30 both (benchmarks/README.md "Closed loop"; measured
+        with ``window_lon`` 50).
     window_lat : int
         Samples of the F estimator window (lateral loop).
     derivative_lat : str
@@ -406,7 +417,7 @@ class MfcNaturalSettings:
 
     alpha_lon: float = 0.002
     kp_lon: float = 2.0
-    window_lon: int = 50
+    window_lon: int = 100
     alpha_lat: float = 30.0
     wn_lat: float = 8.0
     zeta_lat: float = 1.0
