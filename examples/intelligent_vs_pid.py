@@ -31,10 +31,10 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from flatfree.controllers.intelligent import IP  # noqa: E402
+from flatfree.controllers.intelligent import IP
 
 A_DRAG = 0.5  # 1/(unit s): drag coefficient of the plant
 B_NOM = 2.0  # nominal input gain

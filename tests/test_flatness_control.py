@@ -32,8 +32,8 @@ from flatfree.controllers.flatness import (
 from flatfree.controllers.flatness_control import (
     FCS,
     FST,
-    FlatnessControlParams,
     FlatnessController,
+    FlatnessControlParams,
     FlatnessGains,
     FlatReference,
     check_flat_reference,

@@ -13,7 +13,6 @@ from flatfree.vehicles import (
     TP,
     VP,
     TireParams,
-    VehicleParams,
     load_tire,
     load_vehicle,
     tire_names,

@@ -23,17 +23,15 @@ tolerance instead, each justified where it is used:
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
-
-from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
-from flatfree.controllers.flatness_control import sample_flat_reference
-from fractions import Fraction
-
 from numba import njit
 
+from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers import intelligent as _intelligent
+from flatfree.controllers.flatness_control import sample_flat_reference
 from flatfree.controllers.intelligent import (
     IPAR,
     IST,

@@ -196,8 +196,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from flatfree._validate import finite, positive
 from flatfree import _vecmath as vm
+from flatfree._validate import finite, positive
 from flatfree.tires import _lanes_g_plain as _mf_lanes_g_plain
 from flatfree.tires import _lanes_general as _mf_lanes_general
 from flatfree.tires import _mf_combined_lane, mf_combined, slip_speed, slip_stiffness

@@ -338,7 +338,7 @@ def _drive_array(vehicle) -> np.ndarray:
     """The drive model of ``vehicle`` as a float array (m, F_drive,max, P_max, k_drag, F_roll,
     v_top^2)."""
     if not isinstance(vehicle, VehicleParams):  # house style: ValueError naming the field
-        raise ValueError(  # noqa: TRY004
+        raise ValueError(
             f"vehicle = {vehicle!r}: expected a flatfree.vehicles.VehicleParams "
             "(e.g. load_vehicle('peugeot406'))")
     m = vehicle.mass
