@@ -566,11 +566,9 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
     ayf = x[_AYF]
     tw = u[_TW]
 
-    m = p[_M]
     ms = p[_MS]
     lf = p[_LF]
     lr = p[_LR]
-    wb = p[_L]
     tf = p[_TF]
     tr = p[_TR]
     re = p[_RE]
@@ -604,8 +602,6 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
     m_roll_susp = 0.0  # sum y_j (dF_s + dF_arb)
     m_pitch_susp = 0.0  # sum x_i dF_s
     f_heave = 0.0  # sum dF_s
-    hu = p[_HU]
-    mua = p[_MUA]
 
     # Three passes over the wheels: (1) loads, slips and the relaxed-slip dynamics; (2) the
     # tyre forces of all four wheels at once; (3) body forces and wheel spin. Per-wheel values
