@@ -102,7 +102,7 @@ def jacobi_weights(
     ``order + N`` over ``n`` samples. Units: 1/s^order.
     """
     degree = order + N
-    x, sw, q, r = _fit_operator(n, degree, kappa, mu)
+    _, sw, q, r = _fit_operator(n, degree, kappa, mu)
     half = 0.5 * (n - 1) if n > 1 else 1.0
     x0 = lag_samples / half - 1.0
     # time runs opposite to age: d/dt = -(1/(half dt)) d/dx
