@@ -162,19 +162,19 @@ round-off (1-2 ulp elementary functions) and the trajectories of the scalar path
 each state's range (``tests/test_tendof_fastpath.py``). With ``tire_lanes=False`` pass 2 calls
 ``math.atan`` and :func:`flatfree.tires.mf_combined` wheel by wheel, and the body's cos and
 sin are libm's: the reference path (the lanes' path uses ``flatfree._vecmath`` for those too;
-the steer angle's cos and sin, once per step, are ``flatfree._vecmath``'s in both paths). Both paths share passes 1 and 3, which multiply by reciprocals of the constant
-divisors (``MP.inv_*``, ``arb_t_*``, ``q_lat_*``, ``q_long``); the lanes use fused
-multiply-adds (``flatfree.tires``) and, for tyres whose combined-slip curvature factors
-``r_Ex1, r_Ex2, r_Ey1, r_Ey2`` vanish (the peugeot406's), skip the weighting curves' second
-arc tangent, which then equals the first (``MP.lane_variant``, decided once per model). The
-model before these changes (2026-11-22) is reproduced to rounding, not bit for bit (60 s
-open-loop step-steer and braking runs of the three presets: max difference 2.9e-13 of each
-state's largest magnitude). The hot kernels (:func:`rhs_kernel`,
-:func:`rk4_step_kernel` and the loop of :func:`simulate_kernel`) are compiled without numba's
-reference counting (they allocate nothing): its per-call atomic increments and decrements of
-every array argument cost ~40 % of the run time. One RK4 step evaluates the steer angles' cos
-and sin once for its four stages (the input is held) and the diagnostic plain slip ratios only
-in its last stage (the one it leaves in ``diag``).
+the steer angle's cos and sin, once per step, are ``flatfree._vecmath``'s in both paths). Both
+paths share passes 1 and 3, which multiply by reciprocals of the constant divisors (``MP.inv_*``,
+``arb_t_*``, ``q_lat_*``, ``q_long``); the lanes use fused multiply-adds (``flatfree.tires``)
+and, for tyres whose combined-slip curvature factors ``r_Ex1, r_Ex2, r_Ey1, r_Ey2`` vanish (the
+peugeot406's), skip the weighting curves' second arc tangent, which then equals the first
+(``MP.lane_variant``, decided once per model). The model before these changes (2026-11-22) is
+reproduced to rounding, not bit for bit (60 s open-loop step-steer and braking runs of the three
+presets: max difference 2.9e-13 of each state's largest magnitude). The hot kernels
+(:func:`rhs_kernel`, :func:`rk4_step_kernel` and the loop of :func:`simulate_kernel`) are
+compiled without numba's reference counting (they allocate nothing): its per-call atomic
+increments and decrements of every array argument cost ~40 % of the run time. One RK4 step
+evaluates the steer angles' cos and sin once for its four stages (the input is held) and the
+diagnostic plain slip ratios only in its last stage (the one it leaves in ``diag``).
 
 References
 ----------

@@ -228,7 +228,7 @@ def _passes(kappa, ds, u_lat, ax_d, ax_b, ay, closed, u_first, u_last, max_sweep
                 best = u_lat[i]
                 start = i
     sweeps = 0
-    for sweeps in range(1, max_sweeps + 1):
+    for sweeps in range(1, max_sweeps + 1):  # noqa: B007 (the count is returned)
         changed = False
         # forward (accelerating) pass
         steps = m if closed else n - 1
