@@ -80,7 +80,7 @@ def main() -> None:
     t, xr, ur, xd = reference(plant)
     gains = gains_from_poles([-2.0, -3.0], [-4.0, -5.0, -6.0])
     cases = {
-        "exact parameters": dict(),
+        "exact parameters": {},
         "0.3 Cf, 0.3 Cr (model y2')": dict(cf_scale=0.3, cr_scale=0.3),
         "0.3 Cf, 0.3 Cr (algebraic y2')": dict(cf_scale=0.3, cr_scale=0.3,
                                               derivative="algebraic", derivative_window=10),

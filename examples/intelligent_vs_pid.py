@@ -43,6 +43,11 @@ T_END = 10.0  # s
 T_SWITCH = 4.0  # s, the gain changes here
 
 
+def plant(y: float, b: float, u: float) -> float:
+    """y' = -a y|y| + b u."""
+    return -A_DRAG * y * abs(y) + b * u
+
+
 def reference(t: float) -> tuple[float, float]:
     """y_ref and its derivative."""
     return 1.0 + 0.5 * math.sin(0.8 * t), 0.4 * math.cos(0.8 * t)
@@ -82,11 +87,10 @@ def simulate(ctrl, factor: float, delay: int) -> dict[str, np.ndarray]:
         b = B_NOM * (1.0 if t[k] < T_SWITCH else factor)
         h = DT / 4
         for _ in range(4):
-            f = lambda x: -A_DRAG * x * abs(x) + b * ua  # noqa: E731
-            k1 = f(y)
-            k2 = f(y + 0.5 * h * k1)
-            k3 = f(y + 0.5 * h * k2)
-            k4 = f(y + h * k3)
+            k1 = plant(y, b, ua)
+            k2 = plant(y + 0.5 * h * k1, b, ua)
+            k3 = plant(y + 0.5 * h * k2, b, ua)
+            k4 = plant(y + h * k3, b, ua)
             y += h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
     return {"t": t, "y": y_log, "r": r_log, "u": u_log}
 
