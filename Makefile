@@ -1,5 +1,6 @@
 # The two commands of the README: `make demo` and `make test`.
 # Both create .venv when it is missing and install flatfree with the extras they need.
+# `make test` lints first (`make lint`: ruff with the rules of pyproject.toml [tool.ruff.lint]).
 # The install is redone only when pyproject.toml changes (a stamp file per extra set).
 
 PYTHON ?= python3
@@ -7,7 +8,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 
-.PHONY: demo test bench clean-cache clean numba-cache
+.PHONY: demo lint test bench clean-cache clean numba-cache
 
 # numba's on-disk cache does not notice when a compiled function that another module imports
 # has changed (DESIGN.md "Speed by design"): a stale cache then runs old code silently. The make
@@ -41,9 +42,13 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 demo: $(VENV)/.installed numba-cache
 	$(VENV)/bin/flatfree demo
 
+# ruff (a test extra) over the whole tree; any finding fails the target.
+lint: $(VENV)/.installed-test
+	$(VENV)/bin/ruff check .
+
 # The HTML report's browser test needs headless Chromium (Debian packages): installed here when
 # possible (root + apt-get), otherwise the test skips with a clear message.
-test: $(VENV)/.installed-test numba-cache
+test: $(VENV)/.installed-test numba-cache lint
 	bash tools/install_browser.sh
 	$(PY) -m pytest -q
 

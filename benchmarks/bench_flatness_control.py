@@ -70,10 +70,11 @@ def _best(fn, *args):
 
 
 def main() -> None:
-    print(f"flatness controller benchmark, {datetime.date.today()}, {platform.processor() or platform.machine()}, numba {numba.__version__}")
+    print(f"flatness controller benchmark, {datetime.date.today()}, "
+          f"{platform.processor() or platform.machine()}, numba {numba.__version__}")
     gains = gains_from_poles([-2.0, -3.0], [-4.0, -5.0, -6.0])
     plant = P.to_array()
-    for opts in (dict(), dict(derivative="algebraic", derivative_window=10)):
+    for opts in ({}, dict(derivative="algebraic", derivative_window=10)):
         fp = FlatnessControlParams(model=P, gains=gains, dt=DT, **opts)
         p = fp.to_array()
         s = make_state(p)

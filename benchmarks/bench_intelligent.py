@@ -46,10 +46,7 @@ def _closed_loop(p, s, n, dt, with_controller):
         r = math.sin(0.5 * k * dt)
         rd = 0.5 * math.cos(0.5 * k * dt)
         rdd = -0.25 * math.sin(0.5 * k * dt)
-        if with_controller:
-            u = intelligent_step(p, s, y, r, rd, rdd)
-        else:
-            u = -(y - r) - v
+        u = intelligent_step(p, s, y, r, rd, rdd) if with_controller else -(y - r) - v
         if nu == 1:
             y += dt * (-y * y * y + 2.0 * u)  # y' = -y^3 + 2 u
         else:

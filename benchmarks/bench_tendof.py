@@ -142,9 +142,10 @@ def throughput() -> dict[str, float]:
                                                                   "kappa", "kappa_plain")], -1))
             for f in (_mf4_loop, _mf_loop, _copy_loop):
                 f(rows[:10], 1.0, m.tire_front, m.tire_rear)
-            t_copy = _best(lambda: _copy_loop(rows, 1.0, m.tire_front, m.tire_rear))
-            t4 = _best(lambda: _mf4_loop(rows, 1.0, m.tire_front, m.tire_rear)) - t_copy
-            t1 = _best(lambda: _mf_loop(rows, 1.0, m.tire_front, m.tire_rear))
+            tf, tr = m.tire_front, m.tire_rear
+            t_copy = _best(lambda rows=rows, tf=tf, tr=tr: _copy_loop(rows, 1.0, tf, tr))
+            t4 = _best(lambda rows=rows, tf=tf, tr=tr: _mf4_loop(rows, 1.0, tf, tr)) - t_copy
+            t1 = _best(lambda rows=rows, tf=tf, tr=tr: _mf_loop(rows, 1.0, tf, tr))
             n = rows.shape[0]
             per_rhs = wall / (4 * u.shape[0])
             print("2. where the time goes (peugeot406, inputs of the run above):")
@@ -226,10 +227,11 @@ def commonroad_side_by_side(t_end: float = 5.0) -> dict[str, float]:
         for k in range(n):
             u = u_mb(k * dt)
             k1 = vehicle_dynamics_mb(list(x), u, p)
-            k2 = vehicle_dynamics_mb([a + h2 * b for a, b in zip(x, k1)], u, p)
-            k3 = vehicle_dynamics_mb([a + h2 * b for a, b in zip(x, k2)], u, p)
-            k4 = vehicle_dynamics_mb([a + dt * b for a, b in zip(x, k3)], u, p)
-            x = [a + h6 * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]
+            k2 = vehicle_dynamics_mb([a + h2 * b for a, b in zip(x, k1, strict=True)], u, p)
+            k3 = vehicle_dynamics_mb([a + h2 * b for a, b in zip(x, k2, strict=True)], u, p)
+            k4 = vehicle_dynamics_mb([a + dt * b for a, b in zip(x, k3, strict=True)], u, p)
+            x = [a + h6 * (b + 2.0 * (c + d) + e)
+                 for a, b, c, d, e in zip(x, k1, k2, k3, k4, strict=True)]
         return x
 
     def mb_ivp():
@@ -296,7 +298,8 @@ def stable_steps() -> dict[str, float]:
 def main() -> int:
     cpu = "unknown"
     try:
-        for line in subprocess.run(["lscpu"], capture_output=True, text=True).stdout.splitlines():
+        lscpu = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
+        for line in lscpu.splitlines():
             if line.startswith("Model name"):
                 cpu = line.split(":", 1)[1].strip()
     except OSError:

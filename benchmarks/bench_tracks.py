@@ -75,8 +75,8 @@ def bench_build() -> None:
             T.speed_profile(trk)
         b, m = _best(build)
         trk = T.load_track(name)
-        pb, pm = _best(T.speed_profile, trk)
-        rb, rm = _best(lambda: T.make_reference(trk, dt=0.01))
+        pb, _ = _best(T.speed_profile, trk)
+        rb, _ = _best(lambda trk=trk: T.make_reference(trk, dt=0.01))
         print(f"  {name:10s} {trk.length / 1000:4.1f} km: load+build+profile {1e3 * b:6.1f} / "
               f"{1e3 * m:6.1f}  (target < 100 ms for 7 km); profile alone {1e3 * pb:5.2f}; "
               f"reference 1 lap at 10 ms {1e3 * rb:5.1f}")

@@ -186,8 +186,8 @@ def yaw(settings):
         print(f"             the gap peaks at t = {t10.time[i]:.2f} s, vx {t10['vx'][i]:.1f} m/s: "
               f"beta {np.degrees(b10[i]):.2f} deg against the reference's "
               f"{np.degrees(bref[i]):.2f}; within 0.5 s max |r| {np.abs(t10['r'][near]).max():.2f} "
-              f"rad/s, max |vx kappa| {np.abs(t10['vx'] * kappa)[near].max():.2f} rad/s, max |course "
-              f"error| {np.degrees(np.abs(t10['course_error'][near]).max()):.2f} deg",
+              f"rad/s, max |vx kappa| {np.abs(t10['vx'] * kappa)[near].max():.2f} rad/s, "
+              f"max |course error| {np.degrees(np.abs(t10['course_error'][near]).max()):.2f} deg",
               flush=True)
 
 

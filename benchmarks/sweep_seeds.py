@@ -76,7 +76,8 @@ def main(argv: list[str] | None = None) -> None:
                     help="comma-separated bundled tracks (default: all)")
     ap.add_argument("--vehicle", default=None, help="replace the scenario's vehicle preset")
     ap.add_argument("--drive-limit", action="store_true",
-                    help="plan the speed profile within the car's drive limit (reference.drive_limit)")
+                    help="plan the speed profile within the car's drive limit "
+                    "(reference.drive_limit)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="controller setting override (repeatable)")
     args = ap.parse_args(argv)

@@ -35,17 +35,17 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from flatfree.controllers.flatness_control import (  # noqa: E402
-    FlatnessControlParams,
+from flatfree.controllers.flatness_control import (
     FlatnessController,
+    FlatnessControlParams,
     flat_reference,
     gains_from_poles,
 )
-from flatfree.models.bicycle3dof import Bicycle3DoFParams, simulate, vector_field  # noqa: E402
-from flatfree.vehicles import load_vehicle  # noqa: E402
+from flatfree.models.bicycle3dof import Bicycle3DoFParams, simulate, vector_field
+from flatfree.vehicles import load_vehicle
 
 DT = 0.01  # s, sample time of the controller (and RK4 step of the plant)
 T_END = 30.0  # s
@@ -80,7 +80,7 @@ def main() -> None:
     t, xr, ur, xd = reference(plant)
     gains = gains_from_poles([-2.0, -3.0], [-4.0, -5.0, -6.0])
     cases = {
-        "exact parameters": dict(),
+        "exact parameters": {},
         "0.3 Cf, 0.3 Cr (model y2')": dict(cf_scale=0.3, cr_scale=0.3),
         "0.3 Cf, 0.3 Cr (algebraic y2')": dict(cf_scale=0.3, cr_scale=0.3,
                                               derivative="algebraic", derivative_window=10),

@@ -31,16 +31,21 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from flatfree.controllers.intelligent import IP  # noqa: E402
+from flatfree.controllers.intelligent import IP
 
 A_DRAG = 0.5  # 1/(unit s): drag coefficient of the plant
 B_NOM = 2.0  # nominal input gain
 DT = 0.01  # s, sample time
 T_END = 10.0  # s
 T_SWITCH = 4.0  # s, the gain changes here
+
+
+def plant(y: float, b: float, u: float) -> float:
+    """y' = -a y|y| + b u."""
+    return -A_DRAG * y * abs(y) + b * u
 
 
 def reference(t: float) -> tuple[float, float]:
@@ -82,11 +87,10 @@ def simulate(ctrl, factor: float, delay: int) -> dict[str, np.ndarray]:
         b = B_NOM * (1.0 if t[k] < T_SWITCH else factor)
         h = DT / 4
         for _ in range(4):
-            f = lambda x: -A_DRAG * x * abs(x) + b * ua  # noqa: E731
-            k1 = f(y)
-            k2 = f(y + 0.5 * h * k1)
-            k3 = f(y + 0.5 * h * k2)
-            k4 = f(y + h * k3)
+            k1 = plant(y, b, ua)
+            k2 = plant(y + 0.5 * h * k1, b, ua)
+            k3 = plant(y + 0.5 * h * k2, b, ua)
+            k4 = plant(y + h * k3, b, ua)
             y += h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
     return {"t": t, "y": y_log, "r": r_log, "u": u_log}
 

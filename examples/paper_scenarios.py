@@ -17,11 +17,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from flatfree.metrics import compute_metrics  # noqa: E402
-from flatfree.scenarios import paper_scenarios  # noqa: E402
-from flatfree.simulation import simulate  # noqa: E402
+from flatfree.metrics import compute_metrics
+from flatfree.scenarios import paper_scenarios
+from flatfree.simulation import simulate
 
 
 def main(track: str | None = None) -> None:

@@ -119,8 +119,10 @@ def test_braking_yaw_divergence_matches_the_bicycle_model_with_braked_stiffnesse
     assert np.all((ax < -5.7) & (ax > -6.9)), ax  # T = m R_e 6 plus drag, minus wheel inertia
 
     fz, kappa = diag["fz"][ks], diag["kappa"][ks]
-    cf = np.array([_axle_stiffness(vp.tire_front, f[:2], k[:2]) for f, k in zip(fz, kappa)])
-    cr = np.array([_axle_stiffness(vp.tire_rear, f[2:], k[2:]) for f, k in zip(fz, kappa)])
+    cf = np.array([_axle_stiffness(vp.tire_front, f[:2], k[:2])
+                   for f, k in zip(fz, kappa, strict=True)])
+    cr = np.array([_axle_stiffness(vp.tire_rear, f[2:], k[2:])
+                   for f, k in zip(fz, kappa, strict=True)])
     k_us = vp.mass / vp.wheelbase * (vp.lr / cf - vp.lf / cr)
     margin = vp.wheelbase + k_us * v**2  # > 0: the frozen bicycle is stable
     assert np.all(cf > 0.0) and np.all(cr > 0.0)

@@ -262,7 +262,7 @@ def test_run_recording_reports_steer_rms_against_the_recording(runner, tmp_path)
 
     sc = load_scenario(out / "scenario.toml")
     tr = Trajectory.from_parquet(out / "trajectory.parquet")
-    clock = tr["t_ref"] if "t_ref" in tr else tr.time
+    clock = tr["t_ref"] if "t_ref" in tr else tr.time  # noqa: SIM401 (Trajectory has no .get)
     keep = tr.time >= sc.timing.startup_s
     d = tr["steer"][keep] - recorded_steer(clock, sc)[keep]
     assert v == pytest.approx(math.degrees(math.sqrt(np.mean(d * d))), rel=1e-9)

@@ -172,7 +172,7 @@ def test_rule_prediction_matches_a_signal_drawn_from_its_own_model(ruled):
     amp = S * math.sqrt(2 / 400)
     y = np.zeros_like(t)
     dy = np.zeros_like(t)
-    for fk, pk in zip(f, ph):
+    for fk, pk in zip(f, ph, strict=True):
         y += amp * np.sin(2 * np.pi * fk * t + pk)
         dy += amp * 2 * np.pi * fk * np.cos(2 * np.pi * fk * t + pk)
     y += RULE["noise_std"] * rng.standard_normal(t.size)

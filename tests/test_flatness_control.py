@@ -11,6 +11,7 @@ state.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from types import SimpleNamespace
 
@@ -32,8 +33,8 @@ from flatfree.controllers.flatness import (
 from flatfree.controllers.flatness_control import (
     FCS,
     FST,
-    FlatnessControlParams,
     FlatnessController,
+    FlatnessControlParams,
     FlatnessGains,
     FlatReference,
     check_flat_reference,
@@ -220,9 +221,9 @@ def test_flat_reference_spline_derivatives_converge():
         e1 = np.abs(ref.y1_dot - fs[3](t)) / np.abs(fs[3](t)).max()
         inner_errs.append(np.array([e1[inner].max(), e2[inner].max()]))
         all_errs.append(np.array([e1.max(), e2.max()]))
-    for a, b in zip(inner_errs[:-1], inner_errs[1:]):
+    for a, b in itertools.pairwise(inner_errs):
         assert np.all(a / b > 12.0), inner_errs
-    for a, b in zip(all_errs[:-1], all_errs[1:]):
+    for a, b in itertools.pairwise(all_errs):
         assert np.all(a / b > 6.0), all_errs
     assert np.all(inner_errs[1] < 1e-7) and np.all(all_errs[1] < 5e-5), (inner_errs, all_errs)
 
@@ -337,7 +338,7 @@ def test_closed_loop_tracks_a_feasible_curved_reference_exactly(rolling):
     |e_y2'| 1.1e-9 kg m^2/s^2: we assert the issue's 1e-6 in SI units on every one.
     """
     dt = 0.01
-    t, x, u, xd = feasible(P406, [20.0, 0.0, 0.0], dt, 2000, 300.0, 0.4, 0.03, 0.5,
+    t, x, _u, xd = feasible(P406, [20.0, 0.0, 0.0], dt, 2000, 300.0, 0.4, 0.03, 0.5,
                            rolling=rolling)
     ref = reference_for(P406, t, x, xd)
     fp = FlatnessControlParams(model=P406, gains=GAINS, dt=dt,

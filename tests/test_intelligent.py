@@ -320,7 +320,7 @@ def test_nonfinite_measurement_holds_output_counts_and_flags():
     assert c.step(float("nan"), 1.0) == 0.0  # before any finite sample: u0 held
     assert c.status.n_nonfinite == 1 and c.status.nonfinite and c.status.samples == 0
     y = 0.0
-    for k in range(30):
+    for _ in range(30):
         u = c.step(y, 1.0)
         y += (0.5 + u) * dt
     u_last = u
@@ -330,7 +330,7 @@ def test_nonfinite_measurement_holds_output_counts_and_flags():
     assert c.step(y, float("nan")) == u_last  # a non-finite reference is held as well
     assert c.status.n_nonfinite == 5
     # then it recovers: finite output, flag cleared, tracking resumes
-    for k in range(200):
+    for _ in range(200):
         u = c.step(y, 1.0)
         assert math.isfinite(u)
         y += (0.5 + u) * dt
@@ -395,7 +395,8 @@ def test_independent_instances_multi_loop():
     )
     alone = [_drive(m(), ys[:, i], refs) for i, m in enumerate(mk)]
     a, b = mk[0](), mk[1]()
-    inter = np.array([(a.step(y0, *r), b.step(y1, *r)) for (y0, y1), r in zip(ys, refs)])
+    inter = np.array([(a.step(y0, *r), b.step(y1, *r))
+                      for (y0, y1), r in zip(ys, refs, strict=True)])
     np.testing.assert_array_equal(inter[:, 0], alone[0])
     np.testing.assert_array_equal(inter[:, 1], alone[1])
 

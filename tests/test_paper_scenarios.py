@@ -106,7 +106,7 @@ def test_zero_dynamics_of_the_cog_lateral_output():
     from flatfree.models.bicycle3dof import Bicycle3DoFParams
     from flatfree.vehicles import load_vehicle
 
-    m, iz, lf, lr, cr, vx, s = sp.symbols("m I_z l_f l_r C_r v_x s", positive=True)
+    _m, iz, lf, lr, cr, vx, s = sp.symbols("m I_z l_f l_r C_r v_x s", positive=True)
     vy, r = sp.symbols("v_y r")
     fyr = -cr * (vy - lr * r) / vx
     fyf = -fyr  # m a_y = Fyf + Fyr = 0

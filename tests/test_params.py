@@ -13,7 +13,6 @@ from flatfree.vehicles import (
     TP,
     VP,
     TireParams,
-    VehicleParams,
     load_tire,
     load_vehicle,
     tire_names,
@@ -113,7 +112,8 @@ def test_peugeot406_estimates_match_the_reference_sheet():
 
 
 def test_dallara_lf_lr_follow_the_corner_weights_not_the_swapped_upstream():
-    """Corner weights give 40.5% on the front axle (sheet 4.3); upstream lf/lr (58% front) look swapped."""
+    """Corner weights give 40.5% on the front axle (sheet 4.3); upstream lf/lr (58% front) look
+    swapped."""
     v = load_vehicle("dallara_av21")
     front_share = v.static_axle_loads[0] / (v.mass * G)
     assert 0.40 <= front_share <= 0.44

@@ -41,7 +41,7 @@ def _traj(seed: int, *, drop: tuple[str, ...] = (), worst_at: float = 6.0) -> Tr
 
 @pytest.fixture
 def ax():
-    fig, axes = pl.new_figure(5.0, 4.0)
+    _fig, axes = pl.new_figure(5.0, 4.0)
     return axes[0, 0]
 
 
@@ -87,7 +87,7 @@ def test_torque_and_f_estimates(ax):
     runs = {"a": _traj(1)}
     pl.plot_torque(ax, runs)
     np.testing.assert_array_equal(_lines(ax, "a")[0].get_ydata(), runs["a"]["torque"])
-    fig, axes = pl.new_figure(5.0, 4.0)
+    _fig, axes = pl.new_figure(5.0, 4.0)
     assert pl.plot_f_estimate(axes[0, 0], runs, loop="lat") is axes[0, 0]
     (ln,) = _lines(axes[0, 0], "a [m/s^2]")
     np.testing.assert_array_equal(ln.get_ydata(), runs["a"]["f_lat"])
@@ -104,7 +104,7 @@ def test_f_estimates_of_different_units_get_their_own_axis(ax):
     pl.plot_f_estimate(ax, {"nat": a, "flat": b, "none": c}, loop="lat")
     twins = [o for o in ax.figure.axes if o is not ax and o.bbox.bounds == ax.bbox.bounds]
     assert len(twins) == 1
-    (la,) = _lines(ax, "nat [m/s^2]")
+    (_la,) = _lines(ax, "nat [m/s^2]")  # exactly one line
     (lb,) = _lines(twins[0], "flat [kg m^2/s^2]")
     np.testing.assert_array_equal(lb.get_ydata(), b["f_lat"])
     assert "kg m^2/s^2" in twins[0].get_ylabel() and "m/s^2" in ax.get_ylabel()

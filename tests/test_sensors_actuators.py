@@ -1,4 +1,5 @@
-"""Sensors (noise, bias, rate, delay, seeding) and actuators (dead time, lag, rate and range limits)."""
+"""Sensors (noise, bias, rate, delay, seeding) and actuators (dead time, lag, rate and range
+limits)."""
 
 from __future__ import annotations
 

@@ -23,17 +23,15 @@ tolerance instead, each justified where it is used:
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
-
-from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
-from flatfree.controllers.flatness_control import sample_flat_reference
-from fractions import Fraction
-
 from numba import njit
 
+from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers import intelligent as _intelligent
+from flatfree.controllers.flatness_control import sample_flat_reference
 from flatfree.controllers.intelligent import (
     IPAR,
     IST,
@@ -89,7 +87,7 @@ def _actuate_plain(torque_cmd, steer_cmd, vx, p, st):
     s = min(max(st[0] + step, -p[0]), p[0])
     st[0] = s
     tq = st[1] + p[7] * (torque_in - st[1])
-    tq = min(max(tq, -p[6]), min(p[4], p[5] / max(abs(vx), 1.0)))
+    tq = min(max(tq, -p[6]), min(p[4], p[5] / max(abs(vx), 1.0)))  # noqa: PLW3301 (as it was)
     st[1] = tq
     return tq, s
 
@@ -159,7 +157,8 @@ def test_rk4_step_equals_four_right_hand_sides(ackermann):
     work, diag, out = np.empty((5, n)), np.empty((4, 6)), np.empty(n)
     diag_ref = np.empty((4, 6))
     for u in (np.array([400.0, 0.05, 1.0, 1.0, 0.9, 0.9]),
-              np.array([-900.0, -0.12, 0.6, 0.6, 0.6, 0.6]), np.zeros(6) + [0, 0, 1, 1, 1, 1]):
+              np.array([-900.0, -0.12, 0.6, 0.6, 0.6, 0.6]),
+              np.array([0.0, 0.0, 1.0, 1.0, 1.0, 1.0])):
         rk4_step_kernel(x, u, dt, model.params, tpf, tpr, out, work, diag)
         k1, k2, k3, k4 = (np.empty(n) for _ in range(4))
         rhs_kernel(x, u, model.params, tpf, tpr, k1, diag_ref)

@@ -110,7 +110,7 @@ def test_mirror_symmetry_of_left_and_right_steer(name, ackermann):
     np.testing.assert_allclose(a, (b * _MIRROR_SIGN)[:, _MIRROR_PERM], rtol=0.0, atol=1e-9)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _model(name: str, ackermann: bool) -> TenDoF:
     return TenDoF(load_vehicle(name), TenDoFOptions(ackermann=ackermann))
 

@@ -117,7 +117,7 @@ def test_mf_combined4_equals_mf_combined_on_grid(tire_f, tire_r):
     st.sampled_from(range(len(TIRE_PAIRS))),
 )
 def test_mf_combined4_equals_mf_combined_hypothesis(points, pair):
-    kappa, alpha, fz, mu = (np.array(v, dtype=np.float64) for v in zip(*points))
+    kappa, alpha, fz, mu = (np.array(v, dtype=np.float64) for v in zip(*points, strict=True))
     assert _compare(kappa, alpha, fz, mu, *TIRE_PAIRS[pair]) <= FORCE_RTOL
 
 

@@ -12,6 +12,7 @@ derivative of that error formula). In arc length d^4c/ds^4 = -3 kappa kappa' T +
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -166,7 +167,7 @@ def test_projection_exact_on_a_circle(radius, direction):
     psi = psi_path + rng.uniform(-0.3, 0.3, th.size)
     proj = trk.projector()
     proj.reset(s=0.0)
-    out = np.array([proj.project(a, b, c) for a, b, c in zip(x, y, psi)])
+    out = np.array([proj.project(a, b, c) for a, b, c in zip(x, y, psi, strict=True)])
     # s: Hermite position error along the path, plus e * tangent-angle error (|e| <= 3 m)
     m4 = radius**-3.0
     tol_s = 2.0 * hermite_bound(trk.ds, m4) + 3.0 * hermite_angle_bound(trk.ds, m4) + 1e-10
@@ -188,7 +189,7 @@ def test_projection_is_continuous_across_start_finish():
     x = p["x"] - e_true * np.sin(p["psi"])
     y = p["y"] + e_true * np.cos(p["psi"])
     out = trk.project(x, y, p["psi"] + 0.05, s0=s_true[0])
-    ds = np.array([T.progress(b, a, trk.length, True) for a, b in zip(out["s"][:-1], out["s"][1:])])
+    ds = np.array([T.progress(b, a, trk.length, True) for a, b in itertools.pairwise(out["s"])])
     np.testing.assert_allclose(ds, 0.1, atol=1e-6)  # s advances evenly, wrapping L -> 0
     assert out["s"].max() < trk.length and out["s"].min() >= 0.0
     assert np.abs(np.diff(out["e_y"])).max() < 0.1 * 1.5 / 7.0 + 1e-6  # |de/ds| <= 1.5/7
@@ -218,7 +219,7 @@ def test_figure_eight_follows_the_right_branch():
     near = np.hypot(x, y) < 2.0
     assert near.sum() > 20
     nearest = np.array([trk.s[np.argmin(np.hypot(trk.x - a, trk.y - b))]
-                        for a, b in zip(x[near], y[near])])
+                        for a, b in zip(x[near], y[near], strict=True)])
     assert (np.abs(wrap_diff(nearest, s_true[near], trk.length)) > trk.length / 4).any()
     out = trk.project(x, y, p["psi"], s0=s_true[0])
     err = np.abs(wrap_diff(out["s"], s_true, trk.length))
@@ -259,7 +260,7 @@ def test_projector_shell_equals_the_kernel():
     proj = trk.projector()
     proj.reset(x[0], y[0], psi[0])
     seg = T.frenet_init(trk.geometry, True, x[0], y[0], psi[0])
-    for a, b, c in zip(x, y, psi):
+    for a, b, c in zip(x, y, psi, strict=True):
         r1 = proj.project(a, b, c)
         *r2, seg = T.frenet_project(trk.geometry, True, a, b, c, seg)
         assert r1 == tuple(r2)

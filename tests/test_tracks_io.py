@@ -180,16 +180,16 @@ def _write(tmp_path, lines, name="bad.csv"):
         ([HEADER, *GOOD[:4], "20.0,6.0,inf,5.0"],
          r"bad\.csv, line 6, column 'w_tr_right': 'inf' is not finite"),
         # fewer than 4 points
-        ([HEADER, *GOOD[:3]], r"bad\.csv: 3 point\(s\); a path needs at least 4 \(last at "
-                              r"line 4\)"),
+        ([HEADER, *GOOD[:3]], (r"bad\.csv: 3 point\(s\); a path needs at least 4 \(last at "
+                               r"line 4\)")),
         # repeated point
         ([HEADER, *GOOD[:3], GOOD[2], *GOOD[3:]],
-         r"bad\.csv, line 5: repeated point \(10\.0, 1\.0\) equals the previous point "
-         r"\(line 4\)"),
+         (r"bad\.csv, line 5: repeated point \(10\.0, 1\.0\) equals the previous point "
+          r"\(line 4\)")),
         # zero-length segment (distinct numbers, 1e-9 m apart)
         ([HEADER, *GOOD[:3], "10.000000001,1.0,5.0,5.0", *GOOD[3:]],
-         r"bad\.csv, line 5: zero-length segment from the previous point \(line 4\): "
-         r"length 1e-09 m < 1e-06 m"),
+         (r"bad\.csv, line 5: zero-length segment from the previous point \(line 4\): "
+          r"length 1e-09 m < 1e-06 m")),
         # negative width
         ([HEADER, *GOOD[:2], "10.0,1.0,-1.0,5.0", *GOOD[3:]],
          r"bad\.csv, line 4, column 'w_tr_right_m': width -1\.0 m must be >= 0"),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -78,7 +79,7 @@ def test_laps_repeat_the_periodic_profile():
     prof = two.profile
     lap = prof.duration
     second = two.t > lap
-    s, v, a = prof.state_at_time(two.t[second] - lap)  # exact one-lap profile
+    s, v, _a = prof.state_at_time(two.t[second] - lap)  # exact one-lap profile
     np.testing.assert_allclose(two["vx"][second], v, rtol=1e-12)
     np.testing.assert_allclose(two["s"][second], s + trk.length, rtol=1e-12)
     geo = trk.at(s)
@@ -199,7 +200,7 @@ def test_dynamic_integrator_is_second_order():
     trk = _slalom()
     dts = [0.04, 0.02, 0.01, 0.005]
     vy = [T.reference_states_3dof(T.make_reference(trk, 15.0, dt=dt), **CAR).vy for dt in dts]
-    diffs = [np.abs(a - b[::2][: a.size]).max() for a, b in zip(vy[:-1], vy[1:])]
+    diffs = [np.abs(a - b[::2][: a.size]).max() for a, b in itertools.pairwise(vy)]
     ratios = [diffs[0] / diffs[1], diffs[1] / diffs[2]]
     assert all(3.8 < q < 4.2 for q in ratios), (diffs, ratios)
 

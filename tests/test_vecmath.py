@@ -111,7 +111,7 @@ def test_against_mpmath():
     for name, (x, ref) in cases.items():
         y = _eval(_V, name, x)
         worst = 0.0
-        for xi, yi in zip(x, y):
+        for xi, yi in zip(x, y, strict=True):
             exact = ref(mp.mpf(float(xi)))
             worst = max(worst, float(abs(mp.mpf(float(yi)) - exact)) / math.ulp(float(exact)))
         assert worst <= 2.0, (name, worst)

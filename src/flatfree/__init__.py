@@ -50,7 +50,9 @@ _API = {
     "compute_metrics": "flatfree.metrics",
 }
 
-__all__ = sorted(_API) + ["__version__"]
+# built from _API, the one list of the lazily imported names; a list at run time, which is all
+# `from flatfree import *` needs (ruff wants a literal it can read without running the code)
+__all__ = [*sorted(_API), "__version__"]  # noqa: PLE0604
 
 
 def __getattr__(name: str) -> Any:

@@ -1,4 +1,4 @@
-"""Validation helpers: every bad value raises ``ValueError`` naming the field, the value and the unit."""
+"""Validation helpers: every bad value raises ``ValueError`` naming the field, value and unit."""
 
 from __future__ import annotations
 

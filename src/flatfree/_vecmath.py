@@ -273,7 +273,8 @@ def exp(x: float) -> float:
     """Exponential; error < 2 ulp (module docstring)."""
     xc = _EXP_HI if x > _EXP_HI else x
     xc = _EXP_LO if xc < _EXP_LO else xc
-    xc = xc if xc == xc else 0.0  # NaN: any finite value, replaced at the end
+    # xc == xc: False only for NaN (the NaN test, kept in this compiled kernel as written)
+    xc = xc if xc == xc else 0.0  # noqa: PLR0124  NaN: any finite value, replaced at the end
     t = xc * _LOG2E + _SHIFTER  # n = round(x / ln 2) in the low bits of t
     n = t - _SHIFTER
     r = (xc - n * _L1) - n * _L2  # [C&W]: n L1 exact for |n| < 2^21
@@ -288,4 +289,4 @@ def exp(x: float) -> float:
     ni = _float64_bits_as_int64(t) - _SHIFTER_BITS  # n as an integer
     n1 = ni >> 1  # 2^n = 2^n1 2^n2 with both factors normal for n in [-1076, 1024]
     y = (er * _pow2(n1)) * _pow2(ni - n1)
-    return y if x == x else x
+    return y if x == x else x  # noqa: PLR0124  NaN in, NaN out (the NaN test above)

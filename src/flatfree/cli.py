@@ -73,7 +73,8 @@ def _scenarios_module():
     try:
         import flatfree.scenarios as mod
     except ImportError as exc:  # pragma: no cover - depends on the build
-        raise _fail(f"named scenarios need flatfree.scenarios, which this build lacks ({exc})")
+        raise _fail(
+            f"named scenarios need flatfree.scenarios, which this build lacks ({exc})") from exc
     return mod
 
 
@@ -801,9 +802,11 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     figs: list[tuple[str, Path]] = []
     notes: list[str] = []
     # Figure 2: flatness nominal vs mismatch
-    flat_nominal = [r for r in results["paper"] if r.scenario.controller == "flatness"]
-    mism = {**{"nominal Cf, Cr": r.trajectory for r in flat_nominal
-               if r.trajectory is not None},
+    # the paper group has one flatness run (PAPER_RUNS): the nominal curve
+    flat_nominal = next((r.trajectory for r in results["paper"]
+                         if r.scenario.controller == "flatness" and r.trajectory is not None),
+                        None)
+    mism = {**({"nominal Cf, Cr": flat_nominal} if flat_nominal is not None else {}),
             **{r.label: r.trajectory for r in results["mismatch"] if r.trajectory is not None}}
     if mism:
         def fig2():
@@ -811,8 +814,8 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
             pl.plot_mismatch(ax[0, 0], mism, signal="lateral_error")
             pl.plot_mismatch(ax[1, 0], mism, signal="yaw_error")
             return fig, ax
-        figs.append(("Flatness-based control with nominal and 0.3 Cf, 0.3 Cr cornering "
-                     "stiffness (paper Fig. 2).", _draw(figdir, "fig2_mismatch", fig2)))
+        figs.append((("Flatness-based control with nominal and 0.3 Cf, 0.3 Cr cornering "
+                      "stiffness (paper Fig. 2)."), _draw(figdir, "fig2_mismatch", fig2)))
     else:
         notes.append("Figure 2 (flatness control with mismatched stiffness) is missing: "
                      + "; ".join(r.error or "" for r in results["mismatch"]))
@@ -821,14 +824,15 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
         fig, ax = pl.new_figure(8.0, 4.5)
         pl.plot_cornering_stiffness(ax[0, 0], fig3)
         return fig, ax
-    figs.append(("Effective cornering stiffness Fy/alpha of each axle, braking at 5 m/s^2 in "
-                 "a 4 m/s^2 turn at 20 m/s, 10DoF peugeot406 (paper Fig. 3).",
+    figs.append((("Effective cornering stiffness Fy/alpha of each axle, braking at 5 m/s^2 in "
+                  "a 4 m/s^2 turn at 20 m/s, 10DoF peugeot406 (paper Fig. 3)."),
                  _draw(figdir, "fig3_cornering_stiffness", fig3_draw)))
     if paper_runs:
+        # the track runs' inputs figure is not the paper's Fig. 6 (that one is the recording's)
+        renamed = {"fig6_inputs": ("inputs_track", "Wheel torque and steer on the track runs.")}
         for stem, caption, draw in _run_figures(paper_runs, ref_xy):
-            if stem == "fig6_inputs":
-                stem, caption = "inputs_track", "Wheel torque and steer on the track runs."
-            figs.append((caption, _draw(figdir, stem, draw)))
+            name, text = renamed.get(stem, (stem, caption))
+            figs.append((text, _draw(figdir, name, draw)))
     rec_runs = {r.label: r.trajectory for r in results["recorded"] if r.trajectory is not None}
     if rec_runs:
         first = next(iter(rec_runs))
@@ -839,9 +843,9 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
             pl.plot_torque(ax[0, 0], rec_runs)
             pl.plot_steer(ax[1, 0], rec_runs, reference=rec_ref)
             return fig, ax
-        figs.append(("Wheel torque and steer of the model-free controllers against the "
-                     "recorded steer, dallara_av21 on the LVMS recording (paper Fig. 6; the "
-                     "recording has no wheel torque).", _draw(figdir, "fig6_inputs", fig6)))
+        figs.append((("Wheel torque and steer of the model-free controllers against the "
+                      "recorded steer, dallara_av21 on the LVMS recording (paper Fig. 6; the "
+                      "recording has no wheel torque)."), _draw(figdir, "fig6_inputs", fig6)))
     bar.update()
     bar.close()
     missing = [r for r in results["paper"] + results["mismatch"] if r.error is not None]

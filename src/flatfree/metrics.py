@@ -93,8 +93,8 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
     ----------
     traj
         Needs the signals ``lateral_error`` [m], ``yaw_error`` [rad], ``vx`` and ``vx_ref``
-        [m/s], ``steer`` [rad] and ``torque`` [N m]; uses ``course_error`` [rad] if present. ``meta["real_time_factor"]`` is reported
-        when present (NaN otherwise).
+        [m/s], ``steer`` [rad] and ``torque`` [N m]; uses ``course_error`` [rad] if present.
+        ``meta["real_time_factor"]`` is reported when present (NaN otherwise).
     startup_s
         Start-up interval excluded from the errors [s], counted from the first sample.
 

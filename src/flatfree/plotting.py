@@ -192,7 +192,7 @@ def plot_paths(ax: Axes, runs: Runs, *, reference=None, zoom: bool = True,
             ins = ax.inset_axes([0.62, 0.02, 0.36, 0.36])
             if ref is not None:
                 ins.plot(ref[0], ref[1], color=REFERENCE_COLOR, lw=4)
-            for lab, tr in runs.items():
+            for tr in runs.values():
                 if "x" in tr and "y" in tr:
                     ins.plot(tr["x"], tr["y"], lw=1.0)
             h = float(zoom_half_width_m)

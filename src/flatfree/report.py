@@ -273,10 +273,10 @@ def _settings_table(sc: Scenario) -> str:
         ("plant", sc.plant), ("controller", sc.controller),
         ("reference", f"track {ref.track} ({ref.line})" if ref.track is not None
          else f"recording {ref.recording}"),
-        ("speed profile", f"a_lat <= {ref.a_lat_max:g} m/s^2, a_drive <= {ref.a_drive_max:g} "
-                          f"m/s^2, a_brake <= {ref.a_brake_max:g} m/s^2, v <= {ref.v_max:g} m/s"),
-        ("timing", f"plant {sc.timing.plant_dt_s:g} s, control {sc.timing.control_dt_s:g} s, "
-                   f"log {sc.timing.log_dt_s:g} s, duration {duration}"),
+        ("speed profile", (f"a_lat <= {ref.a_lat_max:g} m/s^2, a_drive <= {ref.a_drive_max:g} "
+                           f"m/s^2, a_brake <= {ref.a_brake_max:g} m/s^2, v <= {ref.v_max:g} m/s")),
+        ("timing", (f"plant {sc.timing.plant_dt_s:g} s, control {sc.timing.control_dt_s:g} s, "
+                    f"log {sc.timing.log_dt_s:g} s, duration {duration}")),
         ("noise", "on" if sc.noise else "off"), ("seed", sc.seed),
         ("road friction", sc.road.mu),
     ]
@@ -354,13 +354,13 @@ def write_report(
         f"<h1>{_e(title)}</h1>",
         "<h2>Comparison with the paper</h2>",
         table(results, "comparison"),
-        "<p>Paper: the maximum errors of its Section 4 (10DoF Peugeot 406, recorded track), "
-        "as corrected in NOTES.md &#8220;Results to compare with&#8221;. "
-        "&#8220;agrees&#8221;: our maximum error meets the paper's bound (completed runs "
-        "only: a run that left the track is not compared). &#8220;course&#8221;: the "
-        "direction of the CoG velocity against the path heading, the part of the yaw error a "
-        "steering law controls; the rest is the car's sideslip against the reference "
-        "model's.</p>",
+        ("<p>Paper: the maximum errors of its Section 4 (10DoF Peugeot 406, recorded track), "
+         "as corrected in NOTES.md &#8220;Results to compare with&#8221;. "
+         "&#8220;agrees&#8221;: our maximum error meets the paper's bound (completed runs "
+         "only: a run that left the track is not compared). &#8220;course&#8221;: the "
+         "direction of the CoG velocity against the path heading, the part of the yaw error a "
+         "steering law controls; the rest is the car's sideslip against the reference "
+         "model's.</p>"),
     ]
     for n in notes:
         parts.append(f"<p class=\"note\">{_e(n)}</p>")

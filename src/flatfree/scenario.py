@@ -452,7 +452,7 @@ def scenario_from_toml(text: str, source: str = "<scenario>") -> Scenario:
     try:
         return Scenario(**kwargs)
     except (TypeError, ValueError) as exc:
-        key = _field_in_message(str(exc), {k: None for k in _TOP_KEYS})
+        key = _field_in_message(str(exc), dict.fromkeys(_TOP_KEYS))
         raise where.error(exc, None, key) from None
 
 

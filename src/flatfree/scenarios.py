@@ -62,8 +62,8 @@ What the noise does (measured, benchmarks/README.md "Closed loop"): the natural-
 beyond the steer-rate limit (0.4 rad/s for the peugeot406), so with noise the applied steer
 moves at the rate limit most of the time (steer-rate RMS 0.33 rad/s, against 0.06 rad/s
 noise-free); the errors stay small (1.6 cm max on Norisring, seed 0; 1.4-2.0 cm over seeds
-0-9). Without the yaw damper (the paper's design as printed) 1 mm already made it leave Monza, Spa and, for
-half of the seeds, Norisring.
+0-9). Without the yaw damper (the paper's design as printed) 1 mm already made it leave Monza, Spa
+and, for half of the seeds, Norisring.
 
 References
 ----------

@@ -226,7 +226,7 @@ _UMIN, _UMAX, _RATE, _U0, _AW, _L, _MOM, _REFRESH = 6, 7, 8, 9, 10, 11, 12, 13
 _K, _HEAD, _NNF, _NF, _U, _INT, _FH, _E, _ED, _YD, _SAT, _RL, _YL = range(13)
 _MVALID, _MSINCE, _MY, _MU = 13, 14, 15, 20
 assert [m.value for m in IPAR] == list(range(14)) and _HP == 14
-assert [m.value for m in IST] == list(range(13)) + [13, 14, 15, 20] and _HS == 25
+assert [m.value for m in IST] == [*range(13), 13, 14, 15, 20] and _HS == 25
 # offsets inside the moment block: shift matrix, x_0^m, x_L^m (y), x_(L-1)^m (u), coefficients
 _MB_B, _MB_ADD, _MB_DY, _MB_DU = 0, _ND * _ND, _ND * _ND + _ND, _ND * _ND + 2 * _ND
 _MB_CY, _MB_CU, _MB_CDY, _MB_CDU = (_ND * _ND + 3 * _ND, _ND * _ND + 4 * _ND,

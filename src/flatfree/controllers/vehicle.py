@@ -384,11 +384,11 @@ class MfcNaturalSettings:
         ``estimator_lat = "imu"``): below it the estimate follows the measured e_y, above it
         the integrated acceleration (``benchmarks/imu_sensitivity.py``, with ``--set
         yaw_damping=0 --set denoise_yaw=50`` for the damper-less figures). Without the yaw
-        damper 20 is the best measured with 1 mm of position noise (Norisring and Spa, seeds 0-1, max lateral error 0.09-0.13 cm; 5:
-        0.21-0.26, 40: 0.12-0.19 with a steer-rate RMS of 0.21 rad/s), and with 1 cm of white
-        position noise 20 leaves the track where 5-10 hold 0.3-0.9 cm: lower it for a noisier
-        position. With the scenarios' damper (k_r 0.2 s) 5 to 40 all hold, 1 cm noise too
-        (benchmarks/README.md "Acceleration-aided F").
+        damper 20 is the best measured with 1 mm of position noise (Norisring and Spa, seeds 0-1,
+        max lateral error 0.09-0.13 cm; 5: 0.21-0.26, 40: 0.12-0.19 with a steer-rate RMS of 0.21
+        rad/s), and with 1 cm of white position noise 20 leaves the track where 5-10 hold 0.3-0.9
+        cm: lower it for a noisier position. With the scenarios' damper (k_r 0.2 s) 5 to 40 all
+        hold, 1 cm noise too (benchmarks/README.md "Acceleration-aided F").
     observer_bias_wn : float
         Pole [rad/s] of a third observer state, the accelerometers' constant bias in e_y''
         (``estimator_lat = "imu"``; the poles are then -observer_wn twice and
@@ -398,8 +398,9 @@ class MfcNaturalSettings:
         an uncalibrated MEMS unit's 0.5 m/s^2 (50 mg) the bias state at 0 / 0.5 / 1 / 2 / 5
         rad/s gives 2.5-3.2 / 1.6-1.9 / 1.3-1.4 / 0.9-1.3 / 0.6-1.3; but it also reads position
         noise as bias: with 1 cm of white position noise 1 and 2 rad/s lose 2 of 6 runs and 5
-        loses 3 (0 and 0.5: none), and with every channel at 100 Hz 2 and 5 rad/s lose 1 of 6. Off by default (an INS's calibrated bias,
-        0.01 m/s^2, costs nothing); 0.5 for a raw accelerometer.
+        loses 3 (0 and 0.5: none), and with every channel at 100 Hz 2 and 5 rad/s lose 1 of 6. Off
+        by default (an INS's calibrated bias, 0.01 m/s^2, costs nothing); 0.5 for a raw
+        accelerometer.
     feed_applied : bool
         Feed the estimators the inputs the actuators actually applied (rate limits, the power
         cap, faults, the yaw damper) instead of the controllers' own outputs (default True;

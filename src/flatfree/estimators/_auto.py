@@ -32,6 +32,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -98,7 +99,7 @@ def predicted_rms(design: JacobiDesign, *, bandwidth_hz: float, noise_std: float
 def _candidate(n, N, kappa, order, dt, E, wf, ideal, S2, s2, max_lag_samples):
     """Best lag (whole samples) for one (n, N, kappa): returns (mse, lag_samples)."""
     degree = order + N
-    x, sw, q, r = _fit_operator(n, degree, kappa, 0.0)
+    _, sw, q, r = _fit_operator(n, degree, kappa, 0.0)
     qs = sw[:, None] * q  # W = qs @ Z, Z = R^-T D
     P = (E[0][:, :n] @ qs) + 1j * (E[1][:, :n] @ qs)  # H = P @ Z, (nf, degree+1); real BLAS
     K = qs.T @ qs
@@ -181,25 +182,27 @@ def design_for(dt: float, *, bandwidth_hz: float, noise_std: float, signal_std: 
     E = (np.ascontiguousarray(np.cos(ph)), np.ascontiguousarray(-np.sin(ph)))
     S2, s2 = S * S, s * s
 
+    cache: dict[tuple[int, float, int], tuple[float, int, float]] = {}
+
+    def evaluate(N: int, kappa: float, n: int) -> tuple[float, int, float]:
+        """(predicted MSE, n, best lag in samples) of one window, memoised."""
+        key = (N, kappa, n)
+        if key not in cache:
+            mse, lag = _candidate(n, N, kappa, order, dt, E, wf, ideal, S2, s2, max_lag)
+            # an N = 0 design's delay is intrinsic: it must respect max_delay too
+            if (N == 0 and max_delay is not None
+                    and JacobiDesign(n=n, dt=dt, order=order, kappa=kappa).delay > md):
+                mse = math.inf
+            cache[key] = (mse, n, lag)
+        return cache[key]
+
     best = (math.inf, None)
     for N in _N_CHOICES:
         n_lo = order + N + 2  # at least one sample more than an interpolant
         if n_lo > n_max:
             continue
         for kappa in _KAPPA_CHOICES:
-            cache: dict[int, tuple[float, int, float]] = {}
-
-            def ev(n: int) -> tuple[float, int, float]:
-                """(predicted MSE, n, best lag in samples) of one window, memoised."""
-                if n not in cache:
-                    mse, lag = _candidate(n, N, kappa, order, dt, E, wf, ideal, S2, s2, max_lag)
-                    # an N = 0 design's delay is intrinsic: it must respect max_delay too
-                    if N == 0 and max_delay is not None:
-                        if JacobiDesign(n=n, dt=dt, order=order, kappa=kappa).delay > md:
-                            mse = math.inf
-                    cache[n] = (mse, n, lag)
-                return cache[n]
-
+            ev = functools.partial(evaluate, N, kappa)  # the windows of this (N, kappa)
             steps = 1 + int(math.log(n_max / n_lo) / math.log(1.15))
             grid = np.unique(np.geomspace(n_lo, n_max, steps + 1).astype(int))
             k = int(np.argmin([ev(int(n))[0] for n in grid]))

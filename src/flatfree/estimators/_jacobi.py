@@ -102,7 +102,7 @@ def jacobi_weights(
     ``order + N`` over ``n`` samples. Units: 1/s^order.
     """
     degree = order + N
-    x, sw, q, r = _fit_operator(n, degree, kappa, mu)
+    _, sw, q, r = _fit_operator(n, degree, kappa, mu)
     half = 0.5 * (n - 1) if n > 1 else 1.0
     x0 = lag_samples / half - 1.0
     # time runs opposite to age: d/dt = -(1/(half dt)) d/dx
@@ -226,7 +226,7 @@ class JacobiDesign:
 
     # -- alternative constructors -------------------------------------------------------
     @classmethod
-    def from_window(cls, T: float, dt: float, **kw) -> "JacobiDesign":
+    def from_window(cls, T: float, dt: float, **kw) -> JacobiDesign:
         """Design with window ``T`` s: ``n = round(T / dt) + 1`` samples."""
         dt = _check_dt(dt)
         try:
@@ -238,7 +238,7 @@ class JacobiDesign:
         return cls(n=int(round(Tv / dt)) + 1, dt=dt, **kw)
 
     @classmethod
-    def from_cutoff(cls, cutoff_hz: float, dt: float, **kw) -> "JacobiDesign":
+    def from_cutoff(cls, cutoff_hz: float, dt: float, **kw) -> JacobiDesign:
         """Design whose -3 dB frequency (:func:`cutoff`) is the closest to ``cutoff_hz``.
 
         The window is found by bisection on ``n`` (cutoff decreases as the window grows).

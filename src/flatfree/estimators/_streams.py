@@ -9,7 +9,14 @@ from numba import njit
 
 from flatfree.estimators._auto import design_for, signal_std_estimate
 from flatfree.estimators._fir import (
-    NONFINITE, STARTUP, _policy, _stream_many, check_finite, fir_batch, fir_new, fir_reset,
+    NONFINITE,
+    STARTUP,
+    _policy,
+    _stream_many,
+    check_finite,
+    fir_batch,
+    fir_new,
+    fir_reset,
     fir_update,
 )
 from flatfree.estimators._fweights import _check_dt, _check_int, f_estimator_weights

@@ -162,19 +162,19 @@ round-off (1-2 ulp elementary functions) and the trajectories of the scalar path
 each state's range (``tests/test_tendof_fastpath.py``). With ``tire_lanes=False`` pass 2 calls
 ``math.atan`` and :func:`flatfree.tires.mf_combined` wheel by wheel, and the body's cos and
 sin are libm's: the reference path (the lanes' path uses ``flatfree._vecmath`` for those too;
-the steer angle's cos and sin, once per step, are ``flatfree._vecmath``'s in both paths). Both paths share passes 1 and 3, which multiply by reciprocals of the constant
-divisors (``MP.inv_*``, ``arb_t_*``, ``q_lat_*``, ``q_long``); the lanes use fused
-multiply-adds (``flatfree.tires``) and, for tyres whose combined-slip curvature factors
-``r_Ex1, r_Ex2, r_Ey1, r_Ey2`` vanish (the peugeot406's), skip the weighting curves' second
-arc tangent, which then equals the first (``MP.lane_variant``, decided once per model). The
-model before these changes (2026-11-22) is reproduced to rounding, not bit for bit (60 s
-open-loop step-steer and braking runs of the three presets: max difference 2.9e-13 of each
-state's largest magnitude). The hot kernels (:func:`rhs_kernel`,
-:func:`rk4_step_kernel` and the loop of :func:`simulate_kernel`) are compiled without numba's
-reference counting (they allocate nothing): its per-call atomic increments and decrements of
-every array argument cost ~40 % of the run time. One RK4 step evaluates the steer angles' cos
-and sin once for its four stages (the input is held) and the diagnostic plain slip ratios only
-in its last stage (the one it leaves in ``diag``).
+the steer angle's cos and sin, once per step, are ``flatfree._vecmath``'s in both paths). Both
+paths share passes 1 and 3, which multiply by reciprocals of the constant divisors (``MP.inv_*``,
+``arb_t_*``, ``q_lat_*``, ``q_long``); the lanes use fused multiply-adds (``flatfree.tires``)
+and, for tyres whose combined-slip curvature factors ``r_Ex1, r_Ex2, r_Ey1, r_Ey2`` vanish (the
+peugeot406's), skip the weighting curves' second arc tangent, which then equals the first
+(``MP.lane_variant``, decided once per model). The model before these changes (2026-11-22) is
+reproduced to rounding, not bit for bit (60 s open-loop step-steer and braking runs of the three
+presets: max difference 2.9e-13 of each state's largest magnitude). The hot kernels
+(:func:`rhs_kernel`, :func:`rk4_step_kernel` and the loop of :func:`simulate_kernel`) are
+compiled without numba's reference counting (they allocate nothing): its per-call atomic
+increments and decrements of every array argument cost ~40 % of the run time. One RK4 step
+evaluates the steer angles' cos and sin once for its four stages (the input is held) and the
+diagnostic plain slip ratios only in its last stage (the one it leaves in ``diag``).
 
 References
 ----------
@@ -196,8 +196,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from flatfree._validate import finite, positive
 from flatfree import _vecmath as vm
+from flatfree._validate import finite, positive
 from flatfree.tires import _lanes_g_plain as _mf_lanes_g_plain
 from flatfree.tires import _lanes_general as _mf_lanes_general
 from flatfree.tires import _mf_combined_lane, mf_combined, slip_speed, slip_stiffness
@@ -566,11 +566,9 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
     ayf = x[_AYF]
     tw = u[_TW]
 
-    m = p[_M]
     ms = p[_MS]
     lf = p[_LF]
     lr = p[_LR]
-    wb = p[_L]
     tf = p[_TF]
     tr = p[_TR]
     re = p[_RE]
@@ -604,8 +602,6 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
     m_roll_susp = 0.0  # sum y_j (dF_s + dF_arb)
     m_pitch_susp = 0.0  # sum x_i dF_s
     f_heave = 0.0  # sum dF_s
-    hu = p[_HU]
-    mua = p[_MUA]
 
     # Three passes over the wheels: (1) loads, slips and the relaxed-slip dynamics; (2) the
     # tyre forces of all four wheels at once; (3) body forces and wheel spin. Per-wheel values

@@ -269,7 +269,7 @@ def read_csv(file, source: str) -> RawData:
                 break
     ncol = len(header) if header is not None else len(rows[0])
     fmt, columns = _detect_format(header, ncol, source, header_line or lines[0])
-    for cells, ln in zip(rows, lines):
+    for cells, ln in zip(rows, lines, strict=True):
         if len(cells) != ncol:
             raise ValueError(
                 f"{source}, line {ln}: expected {ncol} values ({', '.join(columns)}), "
@@ -278,7 +278,7 @@ def read_csv(file, source: str) -> RawData:
     try:
         values = np.array(rows, dtype=float)
     except ValueError:
-        for cells, ln in zip(rows, lines):
+        for cells, ln in zip(rows, lines, strict=True):
             for j, c in enumerate(cells):
                 if not _is_number(c):
                     raise ValueError(

@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numba
 import numpy as np
@@ -202,7 +202,7 @@ def _offset_function(d, path: Track):
             raise ValueError(f"lateral_offset = {d!r} m: must be finite")
         if c == 0.0:
             return None
-        zero = lambda s: np.zeros_like(s)  # noqa: E731
+        zero = np.zeros_like
         return (lambda s: np.full_like(s, c)), zero, zero, np.full_like(path.s, c)
     vals = np.asarray(d(path.s) if callable(d) else d, dtype=float)
     if vals.ndim == 0:  # a function that returned a constant

@@ -228,7 +228,7 @@ def _passes(kappa, ds, u_lat, ax_d, ax_b, ay, closed, u_first, u_last, max_sweep
                 best = u_lat[i]
                 start = i
     sweeps = 0
-    for sweeps in range(1, max_sweeps + 1):
+    for sweeps in range(1, max_sweeps + 1):  # noqa: B007 (the count is returned)
         changed = False
         # forward (accelerating) pass
         steps = m if closed else n - 1
@@ -338,7 +338,7 @@ def _drive_array(vehicle) -> np.ndarray:
     """The drive model of ``vehicle`` as a float array (m, F_drive,max, P_max, k_drag, F_roll,
     v_top^2)."""
     if not isinstance(vehicle, VehicleParams):  # house style: ValueError naming the field
-        raise ValueError(  # noqa: TRY004
+        raise ValueError(
             f"vehicle = {vehicle!r}: expected a flatfree.vehicles.VehicleParams "
             "(e.g. load_vehicle('peugeot406'))")
     m = vehicle.mass
