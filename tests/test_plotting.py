@@ -127,6 +127,25 @@ def test_paths_zoom_on_the_worst_corner(ax):
     assert np.diff(inset.get_xlim())[0] == pytest.approx(20.0)
 
 
+def test_paths_inset_and_legend_take_the_emptiest_corners(ax):
+    # loops in the middle of three quadrants of a 100 m box: only the upper left is empty
+    a = np.linspace(0.0, 2.0 * np.pi, 200)
+    cx, cy = (25.0, 75.0, 75.0), (25.0, 25.0, 75.0)
+    ref = (np.concatenate([[0.0]] + [x + 15.0 * np.cos(a) for x in cx] + [[100.0]]),
+           np.concatenate([[0.0]] + [y + 15.0 * np.sin(a) for y in cy] + [[100.0]]))
+    tr = _traj(1, worst_at=6.0)
+    th = np.linspace(0.0, 2.0 * np.pi, len(tr))
+    runs = {"a": Trajectory(time=tr.time, signals={**tr.signals, "x": 75.0 + 15.0 * np.cos(th),
+                                                   "y": 25.0 + 15.0 * np.sin(th)},
+                            units=tr.units)}
+    pl.plot_paths(ax, runs, reference=ref, zoom_half_width_m=5.0)
+    (inset,) = ax.child_axes
+    box = inset.get_position()  # figure fraction; the axes' own box for comparison
+    axbox = ax.get_position()
+    assert box.x0 < axbox.x0 + 0.5 * axbox.width and box.y0 > axbox.y0 + 0.5 * axbox.height
+    assert ax.get_legend()._loc != 2  # the legend is not under the inset (2: upper left)
+
+
 def test_worst_point_ignores_startup_and_missing_signals():
     tr = _traj(1)
     e = tr["lateral_error"].copy()

@@ -157,6 +157,34 @@ def worst_point(runs: Runs, *, startup_s: float = DEFAULT_STARTUP_S) -> tuple[st
     return None if best is None else (best[1], best[2])
 
 
+#: Inset rectangles (axes fraction) of :func:`plot_paths` per corner; a margin at the axes'
+#: edges leaves room for the inset's own tick labels.
+_INSET_RECTS = {
+    "lower right": [0.62, 0.07, 0.35, 0.35],
+    "lower left": [0.08, 0.07, 0.35, 0.35],
+    "upper left": [0.08, 0.58, 0.35, 0.35],
+    "upper right": [0.62, 0.58, 0.35, 0.35],
+}
+
+
+def _corners_by_crowding(ax: Axes, runs: Runs, ref) -> list[str]:
+    """The corners of :data:`_INSET_RECTS`, fewest path points under them first (ties keep
+    the dict's order: lower right first)."""
+    ax.apply_aspect()  # the limits the figure will be drawn with
+    pts = [np.column_stack((ref[0], ref[1]))] if ref is not None else []
+    pts += [np.column_stack((tr["x"], tr["y"])) for tr in runs.values()
+            if "x" in tr and "y" in tr]
+    xy = np.concatenate(pts) if pts else np.empty((0, 2))
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    fx, fy = (xy[:, 0] - x0) / (x1 - x0), (xy[:, 1] - y0) / (y1 - y0)  # axes fraction
+    counts = {}
+    for name, (left, bottom, w, h) in _INSET_RECTS.items():
+        counts[name] = int(np.count_nonzero((fx >= left) & (fx <= left + w) & (fy >= bottom)
+                                            & (fy <= bottom + h)))
+    return sorted(counts, key=counts.__getitem__)
+
+
 def plot_paths(ax: Axes, runs: Runs, *, reference=None, zoom: bool = True,
                zoom_half_width_m: float = 25.0, startup_s: float = DEFAULT_STARTUP_S) -> Axes:
     """Desired vs actual path (paper Fig. 4), with an inset zoomed on the worst corner.
@@ -171,6 +199,8 @@ def plot_paths(ax: Axes, runs: Runs, *, reference=None, zoom: bool = True,
     zoom : bool
         Add an inset around the sample of largest |lateral_error| of all runs (after
         ``startup_s``), ``zoom_half_width_m`` each side; no inset when no run has that signal.
+        The inset takes the corner of the axes with the fewest path points under it, the
+        legend the next one.
     """
     ref = _reference_xy(reference)
     if ref is not None:
@@ -189,7 +219,10 @@ def plot_paths(ax: Axes, runs: Runs, *, reference=None, zoom: bool = True,
         label, i = where
         cx, cy = float(runs[label]["x"][i]), float(runs[label]["y"][i])
         if math.isfinite(cx) and math.isfinite(cy):
-            ins = ax.inset_axes([0.62, 0.02, 0.36, 0.36])
+            corners = _corners_by_crowding(ax, runs, ref)
+            ins = ax.inset_axes(_INSET_RECTS[corners[0]])
+            if ax.get_legend() is not None:  # the legend to the next emptiest corner
+                ax.legend(fontsize=8, loc=corners[1])
             if ref is not None:
                 ins.plot(ref[0], ref[1], color=REFERENCE_COLOR, lw=4)
             for tr in runs.values():
