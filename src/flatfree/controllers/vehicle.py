@@ -477,7 +477,11 @@ class MfcFlatSettings:
     Parameters
     ----------
     alpha_lon, kp_lon, ki_lon, window_lon
-        Speed loop (as :class:`MfcNaturalSettings`, plus the integral gain [1/s^2]).
+        Speed loop (as :class:`MfcNaturalSettings`, plus the integral gain [1/s^2]). The window
+        stays 50 samples here (the natural-output design's is 100 since 2026-11-22, against
+        the torque's chatter): this design's laps are chaotic at the 1 m level, and its
+        completion moved both ways with a longer window (benchmarks/README.md "Speed-loop
+        window"), so no change could be judged from them.
     alpha_lat : float
         Input gain of y2' = F + alpha delta [(kg m^2/s^2) / rad]. Negative (module docstring):
         left steer raises the yaw rate and lowers y2 = lf m Vy - Iz r. Of the order of
