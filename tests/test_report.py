@@ -108,6 +108,12 @@ def test_rows_one_per_run_with_known_numbers_and_missing_runs():
     assert rows[0]["lat_max_cm"] == "1.50"
     assert rows[0]["yaw_max_deg"] == "0.40"
     assert rows[0]["agrees"] == "yes, yes"
+    # efforts over t in [0, 10] s: steer rate 0.01 cos(t), RMS 0.01 sqrt(1/2 + sin(20)/40)
+    # = 0.00723 rad/s; torque rate -100 sin(t), RMS 100 sqrt(1/2 - sin(20)/40) = 69.1 N m/s
+    assert rows[0]["steer_rate_rms"] == "0.007"
+    assert rows[0]["torque_rate_rms"] == "0.1"
+    assert m.torque_rate_rms_nmps == pytest.approx(100.0 * math.sqrt(0.5 - math.sin(20.0) / 40.0),
+                                                   rel=1e-4)
     assert rows[1]["status"] == "not run: not wired yet" and rows[1]["lat_max_cm"] == "-"
     assert rows[2]["agrees"] == "-"  # a run that left the track is not compared
     text = format_table([ok, missing, bad])

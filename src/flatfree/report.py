@@ -140,6 +140,8 @@ TABLE_COLUMNS: tuple[tuple[str, str], ...] = (
     ("yaw_rms_deg", "yaw rms deg"),
     ("course_max_deg", "course max deg"),
     ("speed_rms", "v rms m/s"),
+    ("steer_rate_rms", "steer rate rms rad/s"),
+    ("torque_rate_rms", "torque rate rms kN m/s"),
     ("rtf", "x realtime"),
     ("paper_lat", "paper lat"),
     ("paper_yaw", "paper yaw"),
@@ -170,6 +172,10 @@ def comparison_rows(results: Sequence[RunResult]) -> list[dict[str, str]]:
             # error (metrics.py); the rest is the car's sideslip against the reference model's
             "course_max_deg": _fmt(m.course_error_max_deg if m else None),
             "speed_rms": _fmt(m.speed_error_rms_mps if m else None),
+            # the effort (issue 7's "steering rate and torque effort"): a noisy or limit-cycling
+            # loop shows here before it shows in the errors
+            "steer_rate_rms": _fmt(m.steer_rate_rms_radps if m else None, digits=3),
+            "torque_rate_rms": _fmt(m.torque_rate_rms_nmps if m else None, 1e-3, digits=1),
             "rtf": _fmt(m.real_time_factor if m else None, digits=0),
             "paper_lat": claim.lateral_text() if claim else "-",
             "paper_yaw": claim.yaw_text() if claim else "-",
