@@ -325,6 +325,10 @@ def test_demo_on_a_short_run_writes_report_and_figures(runner, tmp_path):
         assert (figs / "fig2_mismatch.png").is_file()
     n_png = len(list(figs.glob("*.png")))
     assert html.count('src="data:image/png;base64,') == n_png
+    # the library's warnings reach stderr once each and the report's notes (the recording's
+    # reference passes the dallara_av21's flat-output singular speed, 10.8 m/s)
+    w = "warning: recorded, mfc-flat: mfc-flat on dallara_av21"
+    assert res.stderr.count(w) == 1 and w in html
     summary = json.loads((out / "metrics.json").read_text())
     from flatfree.cli import IMU_LABEL
 

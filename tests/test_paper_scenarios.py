@@ -18,8 +18,10 @@ conversion is the steady state of the linear 3DoF model (sympy).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -179,6 +181,56 @@ def test_y2_per_r_is_the_linear_3dof_steady_state():
     b = Bicycle3DoFParams.from_vehicle(load_vehicle("peugeot406"))
     num = float(ratio.subs({m: b.m, iz: b.iz, lf: b.lf, lr: b.lr, cr: b.cr, vx: 30.0}))
     assert float(y2_per_r(b, 30.0)) == pytest.approx(num, rel=1e-12)
+
+
+def test_steer_authority_on_y2_vanishes_with_the_steady_ratio():
+    """d y2'' / d delta of the linear 3DoF model (sympy) is C_f C_r L G / (m Iz Vx), G the
+    steady ratio of :func:`y2_per_r`; its positive root is :func:`flat_output_singular_speed`
+    (real only for a yaw index Iz / (m lf lr) < 1). Checked symbolically, then on the presets."""
+    import sympy as sp
+
+    from flatfree.controllers.vehicle import flat_output_singular_speed, y2_per_r
+    from flatfree.models.bicycle3dof import Bicycle3DoFParams
+    from flatfree.vehicles import load_vehicle
+
+    m, iz, lf, lr, cf, cr, vx = sp.symbols("m I_z l_f l_r C_f C_r v_x", positive=True)
+    vy, r, delta = sp.symbols("v_y r delta")
+    fyf = cf * (delta - (vy + lf * r) / vx)
+    fyr = -cr * (vy - lr * r) / vx
+    f = {vy: (fyf + fyr) / m - vx * r, r: (lf * fyf - lr * fyr) / iz}  # vy', r'
+
+    def dt(expr):  # time derivative along the model at a held steer
+        return sum(sp.diff(expr, x) * fx for x, fx in f.items())
+
+    y2 = lf * m * vy - iz * r
+    assert sp.simplify(sp.diff(dt(y2), delta)) == 0  # the steer cancels in y2'
+    d22 = sp.diff(dt(dt(y2)), delta)
+    g = lf * m * lr - iz - (lf * m * vx) ** 2 / (cr * (lf + lr))
+    assert sp.simplify(d22 - cf * cr * (lf + lr) * g / (m * iz * vx)) == 0
+    (root,) = sp.solve(sp.Eq(g, 0), vx)
+    for name, expected in (("dallara_av21", 10.8), ("peugeot406", 0.58)):
+        b = Bicycle3DoFParams.from_vehicle(load_vehicle(name))
+        vals = {m: b.m, iz: b.iz, lf: b.lf, lr: b.lr, cr: b.cr}
+        v_star = flat_output_singular_speed(b)
+        assert v_star == pytest.approx(float(root.subs(vals)), rel=1e-12)
+        assert round(v_star, 1 if expected > 1 else 2) == expected  # the docstrings' figures
+        assert abs(float(y2_per_r(b, v_star))) < 1e-9 * b.iz
+    b = Bicycle3DoFParams.from_vehicle(load_vehicle("peugeot406"))
+    heavy = dataclasses.replace(b, iz=1.2 * b.m * b.lf * b.lr)  # yaw index 1.2: no root
+    assert math.isnan(flat_output_singular_speed(heavy))
+
+
+def test_prepare_warns_when_a_flat_output_reference_passes_the_singular_speed():
+    from flatfree.simulation import prepare
+
+    rec = named_scenario("recorded", duration_s=2.0)  # the recording brakes to 1.1 m/s
+    for controller in ("mfc-flat", "flatness"):
+        with pytest.warns(UserWarning, match=r"passes 10\.8 m/s.*yaw index .* 0\.59"):
+            prepare(rec.with_(controller=controller, controller_settings={}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning for the natural outputs, nor the 406
+        prepare(rec)
+        prepare(named_scenario("paper-mfc-flat", duration_s=2.0))
 
 
 def test_path_correction_settings_are_validated():

@@ -699,16 +699,24 @@ def _run_figures(runs, ref_xy, recorded_steer=None):
 # ------------------------------------------------------------------------------------------
 # demo
 # ------------------------------------------------------------------------------------------
-def _try_run(label: str, sc):
-    """A RunResult: the run, or why it could not be made (a ValueError of the engine)."""
+def _try_run(label: str, sc, warned: list[str] | None = None):
+    """A RunResult: the run, or why it could not be made (a ValueError of the engine). The
+    library's warnings of the run go to ``warned`` as ``"label: message"``."""
+    import warnings
+
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult
     from flatfree.simulation import simulate
 
     try:
-        tr = simulate(sc)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            tr = simulate(sc)
     except ValueError as exc:
         return RunResult(label=label, scenario=sc, error=str(exc))
+    finally:
+        if warned is not None:
+            warned.extend(f"{label}: {w.message}" for w in caught)
     m = compute_metrics(tr, startup_s=sc.timing.startup_s)
     return RunResult(label=label, scenario=sc, trajectory=tr, metrics=m)
 
@@ -782,9 +790,12 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     t0 = time.perf_counter()
     bar = tqdm(total=len(tasks) + 2, disable=not show, file=sys.stderr, unit="step",
                desc="flatfree demo")
+    warned: list[str] = []
     for group, label, sc in tasks:
         bar.set_postfix_str(f"{group}: {label}")
-        results[group].append(_try_run(label, sc))
+        task_warned: list[str] = []
+        results[group].append(_try_run(label, sc, task_warned))
+        warned.extend(f"{group}, {w}" for w in task_warned)
         bar.update()
     ran = [r for r in results["recorded"] if r.trajectory is not None]
     rec_steer = dict(zip([r.label for r in ran], recorded_steer_of(
@@ -851,6 +862,9 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     missing = [r for r in results["paper"] + results["mismatch"] if r.error is not None]
     for r in missing:
         notes.append(f"{r.label}: not run: {r.error}")
+    for w in dict.fromkeys(warned):  # in order, once each
+        _err(f"warning: {w}")
+        notes.append(f"warning: {w}")
     scen = {f"{g}: {r.label}": r.scenario for g in results for r in results[g]}
     report = write_report(out_dir / "report.html", results["paper"], figs, scenarios=scen,
                           notes=notes,

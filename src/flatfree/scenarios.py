@@ -244,9 +244,13 @@ def recorded_steer(traj_time: np.ndarray, scenario: Scenario) -> np.ndarray:
     The run's clock starts at the reference's first sample, so the recorded steer is read at the
     same reference time (``t_ref`` when the run logged it, else the clock).
     """
+    import warnings
+
     from flatfree.simulation import prepare  # late: simulation imports the heavy parts
 
-    ref = prepare(scenario).reference
+    with warnings.catch_warnings():  # the run warned already; reading its reference repeats
+        warnings.simplefilter("ignore")
+        ref = prepare(scenario).reference
     if "delta_recorded" not in ref.extras:
         raise ValueError(f"scenario {scenario.name!r}: its reference is not a recording")
     return np.interp(np.asarray(traj_time, dtype=float), ref["t"], ref.extras["delta_recorded"])

@@ -73,6 +73,7 @@ from flatfree.controllers.vehicle import (
     VehicleControllerArrays,
     build_flatness,
     build_mfc,
+    flat_output_singular_speed,
     settings_from_mapping,
     vehicle_step,
     wants_ey_ddot,
@@ -596,6 +597,25 @@ def _warn_if_beyond_steer_lock(ref: Reference, vehicle: VehicleParams) -> None:
             "the path there", UserWarning, stacklevel=3)
 
 
+def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
+                                  controller: str, vehicle: VehicleParams) -> None:
+    """Warn when a flat-output design's reference passes the speed where the steer loses its
+    authority over y2 (:func:`flatfree.controllers.vehicle.flat_output_singular_speed`)."""
+    if controller not in ("flatness", "mfc-flat"):
+        return
+    v_star = flat_output_singular_speed(model)
+    vx = np.asarray(ref["vx"], dtype=float)
+    vx = vx[np.isfinite(vx)]
+    if math.isnan(v_star) or vx.size == 0 or not vx.min() <= v_star <= vx.max():
+        return
+    warnings.warn(
+        f"{controller} on {vehicle.name}: the reference's speed ({vx.min():.1f}-{vx.max():.1f} "
+        f"m/s) passes {v_star:.1f} m/s, where the steer has no effect on the flat output "
+        f"y2 = lf m Vy - Iz r (yaw index Iz / (m lf lr) = "
+        f"{model.iz / (model.m * model.lf * model.lr):.2f} < 1): the lateral loop fails near "
+        "that speed", UserWarning, stacklevel=3)
+
+
 def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepared:
     """Build the vehicle, reference, controller and initial state of a scenario.
 
@@ -606,6 +626,8 @@ def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepare
     ref = _reference(sc, vehicle)
     _warn_if_beyond_steer_lock(ref, vehicle)
     bic = Bicycle3DoFParams.from_vehicle(vehicle)
+    if python_controller is None:
+        _warn_if_flat_output_singular(ref, bic, sc.controller, vehicle)
     lat = reference_states_3dof(ref, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
                                 lf=bic.lf, lr=bic.lr)
     recorded = sc.reference.recording is not None

@@ -61,7 +61,11 @@ relative degree 2 with respect to the steer, and d(y2'')/d(delta) = Delta_22 ~ -
 (for Iz ~ lf lr m) is negative. The first-order ultra-local model y2' = F + alpha delta of the
 paper therefore stands for the effect of the steer on y2' accumulated over the estimator window,
 and alpha_lat must be negative (:class:`MfcFlatSettings`). The paper reports this design as
-clearly worse than the natural-output one (lateral errors above 10 cm).
+clearly worse than the natural-output one (lateral errors above 10 cm). In general
+Delta_22 = C_f C_r L G(Vx) / (m Iz Vx) with G the steady ratio d y2 / d r (:func:`y2_per_r`): it
+vanishes at the speed :func:`flat_output_singular_speed` of a car whose yaw index
+Iz / (m lf lr) is below 1, where both flat-output designs lose the steer (the dallara_av21 at
+10.8 m/s; ``simulation.prepare`` warns when a reference passes it).
 
 References
 ----------
@@ -120,6 +124,7 @@ __all__ = [
     "vehicle_step",
     "path_correction",
     "y2_per_r",
+    "flat_output_singular_speed",
     "OUTER_WN",
     "OUTER_ZETA",
     "MFC_FLAT_OUTER_WN",
@@ -232,6 +237,29 @@ def y2_per_r(model: Bicycle3DoFParams, vx: np.ndarray | float) -> np.ndarray:
     vx = np.asarray(vx, dtype=float)
     return model.lf * model.m * model.lr - model.iz - (model.lf * model.m * vx) ** 2 / (
         model.cr * big_l)
+
+
+def flat_output_singular_speed(model: Bicycle3DoFParams) -> float:
+    """Speed [m/s] at which the steer loses its authority over the flat output y2 (NaN: none).
+
+    In the linear 3DoF model the steer cancels in y2' (NOTES.md) and acts on y2'' with
+
+        d y2'' / d delta = C_f C_r L G(Vx) / (m Iz Vx),      G = :func:`y2_per_r`,
+
+    (sympy, tests/test_paper_scenarios.py), so the steer's effect on y2 and the steady ratio
+    d y2 / d r vanish together where G(Vx) = 0:
+
+        v* = sqrt(L C_r (m lf lr - Iz)) / (lf m),
+
+    real only for a yaw index Iz / (m lf lr) < 1. Near v* the flatness controller's decoupling
+    matrix is singular and the flat-output model-free loop has no input gain; below it the
+    gain's sign is reversed. The peugeot406 (yaw index 1.00) has v* = 0.58 m/s; the
+    dallara_av21 (0.59) 10.8 m/s, which its recording passes when it stops at the end.
+    """
+    a = model.lf * model.m * model.lr - model.iz
+    if a <= 0.0:
+        return math.nan
+    return math.sqrt((model.lf + model.lr) * model.cr * a) / (model.lf * model.m)
 
 
 @njit(cache=True)
@@ -515,7 +543,10 @@ class MfcFlatSettings:
     0.99-1.03 m on Norisring, 0.71 m on Budapest); -5e4 was better for seed 0 but 1.4 m for
     seed 1. The steer still moves close to its rate limit of 0.4 rad/s (steer-rate RMS
     0.31 rad/s, 0.21 noise-free): the nu = 1 iPI on a relative-degree-2 output is the limit
-    of this design.
+    of this design. On a car with a yaw index Iz / (m lf lr) below 1 the steer's effect on y2
+    vanishes at :func:`flat_output_singular_speed` and reverses below it: the dallara_av21
+    (10.8 m/s) follows its recording within 10.75 cm until the recorded car brakes through
+    that speed at the end, then leaves the path (1.1 m in the last 1.5 s, noise-free too).
     """
 
     alpha_lon: float = 0.002
