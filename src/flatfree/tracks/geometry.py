@@ -118,37 +118,32 @@ def _hermite_combine(g, i, h, h00, h10, h01, h11, d00, d10, d01, d11, e00, e10, 
 
 
 @numba.njit(cache=True, inline="always")
-def _hermite(g, i, sigma, h):
-    """Position, first and second derivative w.r.t. arc length on segment i [Hermite]."""
-    t = sigma / h
+def _hermite_basis(t):
+    """The cubic Hermite basis at ``t`` in [0, 1] [Hermite]: the four basis values, then the
+    numerators of their first and of their second arc-length derivatives (the callers divide
+    by the segment length h, or multiply by 1 / h: d00 = (6 t^2 - 6 t) / h, d10 = 3 t^2 - 4 t + 1
+    (tangents scale by h), e00 = (12 t - 6) / h^2, e10 = (6 t - 4) / h, ...)."""
     t2 = t * t
     t3 = t2 * t
-    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
-    h10 = t3 - 2.0 * t2 + t
-    h01 = -2.0 * t3 + 3.0 * t2
-    h11 = t3 - t2
-    d00 = (6.0 * t2 - 6.0 * t) / h
-    d10 = 3.0 * t2 - 4.0 * t + 1.0
-    d01 = (-6.0 * t2 + 6.0 * t) / h
-    d11 = 3.0 * t2 - 2.0 * t
-    e00 = (12.0 * t - 6.0) / (h * h)
-    e10 = (6.0 * t - 4.0) / h
-    e01 = (-12.0 * t + 6.0) / (h * h)
-    e11 = (6.0 * t - 2.0) / h
-    return _hermite_combine(g, i, h, h00, h10, h01, h11, d00, d10, d01, d11, e00, e10, e01,
-                            e11)
+    return (2.0 * t3 - 3.0 * t2 + 1.0, t3 - 2.0 * t2 + t, -2.0 * t3 + 3.0 * t2, t3 - t2,
+            6.0 * t2 - 6.0 * t, 3.0 * t2 - 4.0 * t + 1.0, -6.0 * t2 + 6.0 * t, 3.0 * t2 - 2.0 * t,
+            12.0 * t - 6.0, 6.0 * t - 4.0, -12.0 * t + 6.0, 6.0 * t - 2.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _hermite(g, i, sigma, h):
+    """Position, first and second derivative w.r.t. arc length on segment i [Hermite]."""
+    h00, h10, h01, h11, p00, d10, p01, d11, q00, q10, q01, q11 = _hermite_basis(sigma / h)
+    return _hermite_combine(g, i, h, h00, h10, h01, h11, p00 / h, d10, p01 / h, d11,
+                            q00 / (h * h), q10 / h, q01 / (h * h), q11 / h)
 
 
 @numba.njit(cache=True, inline="always")
 def _hermite_scalar(v0, m0, v1, m1, sigma, h):
     """Cubic Hermite value and derivative of a scalar with node values v and slopes m [Hermite]."""
-    t = sigma / h
-    t2 = t * t
-    t3 = t2 * t
-    val = (2.0 * t3 - 3.0 * t2 + 1.0) * v0 + (t3 - 2.0 * t2 + t) * h * m0 \
-        + (-2.0 * t3 + 3.0 * t2) * v1 + (t3 - t2) * h * m1
-    der = (6.0 * t2 - 6.0 * t) / h * v0 + (3.0 * t2 - 4.0 * t + 1.0) * m0 \
-        + (-6.0 * t2 + 6.0 * t) / h * v1 + (3.0 * t2 - 2.0 * t) * m1
+    h00, h10, h01, h11, p00, d10, p01, d11, _, _, _, _ = _hermite_basis(sigma / h)
+    val = h00 * v0 + h10 * h * m0 + h01 * v1 + h11 * h * m1
+    der = p00 / h * v0 + d10 * m0 + p01 / h * v1 + d11 * m1
     return val, der
 
 
@@ -156,35 +151,18 @@ def _hermite_scalar(v0, m0, v1, m1, sigma, h):
 def _hermite_inv(g, i, sigma, h, inv_h):
     """:func:`_hermite` with the divisions by ``h`` as multiplications by ``inv_h = 1 / h``
     (the projection's Newton loop: same formulas to round-off, ~4x shorter latency each)."""
-    t = sigma * inv_h
     inv_h2 = inv_h * inv_h
-    t2 = t * t
-    t3 = t2 * t
-    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
-    h10 = t3 - 2.0 * t2 + t
-    h01 = -2.0 * t3 + 3.0 * t2
-    h11 = t3 - t2
-    d00 = (6.0 * t2 - 6.0 * t) * inv_h
-    d10 = 3.0 * t2 - 4.0 * t + 1.0
-    d01 = (-6.0 * t2 + 6.0 * t) * inv_h
-    d11 = 3.0 * t2 - 2.0 * t
-    e00 = (12.0 * t - 6.0) * inv_h2
-    e10 = (6.0 * t - 4.0) * inv_h
-    e01 = (-12.0 * t + 6.0) * inv_h2
-    e11 = (6.0 * t - 2.0) * inv_h
-    return _hermite_combine(g, i, h, h00, h10, h01, h11, d00, d10, d01, d11, e00, e10, e01,
-                            e11)
+    h00, h10, h01, h11, p00, d10, p01, d11, q00, q10, q01, q11 = _hermite_basis(sigma * inv_h)
+    return _hermite_combine(g, i, h, h00, h10, h01, h11, p00 * inv_h, d10, p01 * inv_h, d11,
+                            q00 * inv_h2, q10 * inv_h, q01 * inv_h2, q11 * inv_h)
 
 
 @numba.njit(cache=True, inline="always")
 def _hermite_scalar_value(v0, m0, v1, m1, sigma, h, inv_h):
     """The value of :func:`_hermite_scalar` (``inv_h = 1 / h``; the projection's heading and
     curvature, whose derivatives it does not use)."""
-    t = sigma * inv_h
-    t2 = t * t
-    t3 = t2 * t
-    return (2.0 * t3 - 3.0 * t2 + 1.0) * v0 + (t3 - 2.0 * t2 + t) * h * m0 \
-        + (-2.0 * t3 + 3.0 * t2) * v1 + (t3 - t2) * h * m1
+    h00, h10, h01, h11, _, _, _, _, _, _, _, _ = _hermite_basis(sigma * inv_h)
+    return h00 * v0 + h10 * h * m0 + h01 * v1 + h11 * h * m1
 
 
 @numba.njit(cache=True)
