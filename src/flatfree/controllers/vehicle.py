@@ -824,13 +824,17 @@ _FH_I, _E_I, _ED_I, _SAT_I, _RL_I = (int(IST.F_HAT), int(IST.E), int(IST.E_DOT),
 
 
 @njit(cache=True)
+def _imu_on(kind, coef) -> bool:
+    """The natural-output controller with ``estimator_lat = "imu"``."""
+    return kind == 2 and coef.shape[0] > _IMU_STARTED and coef[_IMU_ON] != 0.0
+
+
+@njit(cache=True)
 def wants_ey_ddot(kind, coef) -> bool:
     """Whether a controller reads the measured e_y'' (``MEAS.EY_DDOT``): a Python controller
     (it gets every column) or the natural-output one with ``estimator_lat = "imu"``. The loop
     forms the column only then (it costs a cosine, a sine and a division per control step)."""
-    if kind == 3:  # KIND.PYTHON
-        return True
-    return kind == 2 and coef.shape[0] > _IMU_STARTED and coef[_IMU_ON] != 0.0
+    return kind == 3 or _imu_on(kind, coef)  # 3: KIND.PYTHON
 
 
 @njit(cache=True)
@@ -932,7 +936,7 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         p_lat[IPAR.KD] = 2.0 * coef[14] * wn
     u_prev = s_lat[_U_I]  # the steer applied over the last period (feed_applied) or commanded
     delta = intelligent_step(p_lat, s_lat, y, yr, yrd, yrdd)
-    if kind == 2 and coef.shape[0] > _IMU_STARTED and coef[_IMU_ON] != 0.0:
+    if _imu_on(kind, coef):
         delta = _imu_lateral(p_lat, s_lat, coef, meas[6], meas[10], yr, yrd, yrdd, u_prev,
                              delta)
     if coef[4] != 0.0:
@@ -1014,7 +1018,8 @@ class NaturalOutputController:
 
     def reset(self, *, steer0: float = 0.0, torque0: float = 0.0) -> None:
         """Fresh estimators; ``steer0`` [rad] and ``torque0`` [N m] are the actuators' positions,
-        held until the estimator windows are full (50 / 100 samples by default)."""
+        held until the estimator windows are full (``window_lon`` / ``window_lat`` samples,
+        100 each by default)."""
         steer0 = finite("steer0", steer0, "rad")
         torque0 = finite("torque0", torque0, "N m")
         self._arrays = build_mfc("mfc-natural", self._settings, dt=self._dt,
