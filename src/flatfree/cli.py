@@ -450,22 +450,31 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         raise _fail(str(exc)) from None
 
 
-def _simulate(sc):
-    """simulate(sc); a ValueError (bad input, unsupported feature) becomes exit code 2, and the
-    library's warnings (e.g. a curve beyond the car's steer lock) are printed as one line each
-    on stderr, ``warning: ...``."""
+def _simulate_collecting(sc, warned: list[str]):
+    """simulate(sc), the library's warnings (e.g. a curve beyond the car's steer lock) appended
+    to ``warned`` as text instead of shown; a ValueError passes through."""
     import warnings
 
     from flatfree.simulation import simulate
 
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            return simulate(sc)
+        finally:
+            warned.extend(str(w.message) for w in caught)
+
+
+def _simulate(sc):
+    """simulate(sc); a ValueError (bad input, unsupported feature) becomes exit code 2, and the
+    library's warnings are printed as one line each on stderr, ``warning: ...``."""
+    warned: list[str] = []
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            tr = simulate(sc)
+        tr = _simulate_collecting(sc, warned)
     except ValueError as exc:
         raise _fail(f"scenario {sc.name!r}, controller {sc.controller}: {exc}") from None
-    for w in caught:
-        _err(f"warning: {w.message}")
+    for w in warned:
+        _err(f"warning: {w}")
     return tr
 
 
@@ -699,24 +708,16 @@ def _run_figures(runs, ref_xy, recorded_steer=None):
 # ------------------------------------------------------------------------------------------
 # demo
 # ------------------------------------------------------------------------------------------
-def _try_run(label: str, sc, warned: list[str] | None = None):
-    """A RunResult: the run, or why it could not be made (a ValueError of the engine). The
-    library's warnings of the run go to ``warned`` as ``"label: message"``."""
-    import warnings
-
+def _try_run(label: str, sc, warned: list[str]):
+    """A RunResult: the run, or why it could not be made (a ValueError of the engine); the
+    library's warnings of the run are appended to ``warned``."""
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult
-    from flatfree.simulation import simulate
 
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            tr = simulate(sc)
+        tr = _simulate_collecting(sc, warned)
     except ValueError as exc:
         return RunResult(label=label, scenario=sc, error=str(exc))
-    finally:
-        if warned is not None:
-            warned.extend(f"{label}: {w.message}" for w in caught)
     m = compute_metrics(tr, startup_s=sc.timing.startup_s)
     return RunResult(label=label, scenario=sc, trajectory=tr, metrics=m)
 
@@ -795,7 +796,7 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
         bar.set_postfix_str(f"{group}: {label}")
         task_warned: list[str] = []
         results[group].append(_try_run(label, sc, task_warned))
-        warned.extend(f"{group}, {w}" for w in task_warned)
+        warned.extend(f"{group}, {label}: {w}" for w in task_warned)
         bar.update()
     ran = [r for r in results["recorded"] if r.trajectory is not None]
     rec_steer = dict(zip([r.label for r in ran], recorded_steer_of(
