@@ -436,3 +436,31 @@ def test_a_curve_beyond_the_steer_lock_is_warned_about():
         warnings.simplefilter("error")
         prepare(named_scenario("paper"))
         prepare(named_scenario("paper", track="LVMS").with_(vehicle="dallara_av21"))
+
+
+def test_the_power_cap_counts_a_spinning_driven_wheel():
+    """The engine's power goes to the driven wheels at their own speed: with the front wheels
+    of the peugeot406 spinning on ice-like road (mu 0.3 over 30 m where the car leaves a corner
+    under full power) the applied drive torque times the driveline's speed R_e (Omega_fl +
+    Omega_fr) / 2 never exceeds P R_e. Capping at the body speed, as before 2026-11-22 (session
+    5), let the front wheels spin up to 10x the road speed on average and take 10x the
+    engine's power here (measured; now 2.5x the road speed, and the cap binds at 0.40 of the
+    body-speed cap)."""
+    from flatfree.actuators import V_POWER_MIN
+    from flatfree.vehicles import load_vehicle
+
+    veh = load_vehicle("peugeot406")
+    ice = FrictionPatch(s_start_m=170.0, s_end_m=200.0, mu=0.3)
+    tr = simulate(_scenario(road=RoadSpec(mu=1.0, patches=(ice,)), noise=False,
+                            timing=Timing(duration_s=12.0, log_dt_s=0.001)))
+    assert tr.status is Status.COMPLETED
+    v_drive = veh.wheel_radius * 0.5 * (tr["omega_fl"] + tr["omega_fr"])
+    p_re = veh.max_power * veh.wheel_radius
+    drive = tr["torque"] > 0.0
+    assert np.all(tr["torque"][drive] * np.maximum(v_drive[drive], V_POWER_MIN)
+                  <= p_re * (1.0 + 1e-12))
+    # the patch really spins the front wheels, and the cap then binds well below P R_e / vx
+    spin = v_drive > 1.5 * tr["vx"]
+    assert spin.any()
+    capped = drive & (np.abs(tr["torque"] * v_drive - p_re) <= 1e-9 * p_re)
+    assert np.min(tr["torque"][capped] * tr["vx"][capped] / p_re) < 0.5

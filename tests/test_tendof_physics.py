@@ -295,3 +295,24 @@ def test_braking_in_a_turn_moves_load_and_cornering_stiffness_to_the_front(name)
         change_ref = predicted(ka, wheels, tire) / predicted(kb, wheels, tire) - 1.0
         assert sign * change > 0.04  # front up, rear down, by several per cent
         assert change == pytest.approx(change_ref, abs=0.025)
+
+
+@pytest.mark.parametrize("name", ["peugeot406", "dallara_av21"])
+def test_drive_speed_is_the_driven_wheels_speed_in_their_torque_shares(name):
+    """The drive torque's power is tw sum_i s_i Omega_i with the shares of rhs_kernel's open
+    differentials; drive_speed is R_e sum_i s_i Omega_i: only the driven axle counts, one
+    spinning wheel adds half its spin."""
+    from flatfree.models.tendof import drive_speed
+
+    vp = load_vehicle(name)
+    m = TenDoF(vp)
+    x = np.zeros(len(TenDoFState))
+    x[TenDoFState.vx] = 20.0
+    re = vp.wheel_radius
+    omegas = np.array([20.0, 20.0, 20.0, 20.0]) / re
+    driven = [Wheel.fl, Wheel.fr] if vp.drive == "front" else [Wheel.rl, Wheel.rr]
+    other = [Wheel.rl, Wheel.rr] if vp.drive == "front" else [Wheel.fl, Wheel.fr]
+    omegas[driven[0]] = 60.0 / re  # one driven wheel spinning at 3x the road speed
+    omegas[other[1]] = 5.0 / re  # a locked-ish undriven wheel does not count
+    x[TenDoFState.omega_fl:TenDoFState.omega_fl + 4] = omegas
+    assert drive_speed(x, m.params) == pytest.approx(0.5 * (60.0 + 20.0), rel=1e-15)

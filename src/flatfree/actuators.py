@@ -8,7 +8,11 @@ steer angle delta [rad]. Between command and plant, :func:`actuate_step` applies
    the step: ``y += (1 - exp(-dt / tau)) (u - y)`` (``tau = 0``: no lag);
 3. **rate limit** (steering) [rad/s];
 4. **range limit**: steer to [-max_steer, max_steer]; torque to
-   [-max_brake_torque, min(max_drive_torque, max_power R_e / max(vx, v_power_min))].
+   [-max_brake_torque, min(max_drive_torque, max_power R_e / max(|v_drive|, v_power_min))].
+   ``v_drive`` is the speed at which the drive torque works: R_e times the driven wheels'
+   spin rates in their torque shares (:func:`flatfree.models.tendof.drive_speed`; the
+   closed loop passes it for the 10DoF plant), so that a driven wheel spinning up takes its
+   power too; the body speed where the wheels are not modelled (3DoF plant, a user's loop).
 
 Limits come from the vehicle (:meth:`ActuatorParams.from_vehicle`) and may be overridden. Input
 limits live here, never inside the vehicle's vector field.
@@ -102,9 +106,10 @@ def actuator_state(params: ActuatorParams, dt: float, steer0: float = 0.0,
 
 
 @njit(**no_refcount({"cache": True}))
-def actuate_step(torque_cmd, steer_cmd, vx, p, st):
+def actuate_step(torque_cmd, steer_cmd, v_drive, p, st):
     """Advance the actuators by one plant step; returns (torque_applied, steer_applied).
 
+    ``v_drive`` [m/s] is the speed of the power cap (module docstring, item 4).
     ``p`` from :meth:`ActuatorParams.to_array`, ``st`` from :func:`actuator_state` (mutated).
     A non-finite command is ignored (the previous command is repeated). Allocation-free,
     compiled without reference counting (``flatfree._vecmath.no_refcount``).
@@ -139,7 +144,7 @@ def actuate_step(torque_cmd, steer_cmd, vx, p, st):
     st[0] = s
     # torque: lag, range with the power cap
     tq = st[1] + p[7] * (torque_in - st[1])
-    drive_cap = min(p[4], p[5] / max(abs(vx), V_POWER_MIN))
+    drive_cap = min(p[4], p[5] / max(abs(v_drive), V_POWER_MIN))
     tq = min(max(tq, -p[6]), drive_cap)
     st[1] = tq
     return tq, s

@@ -81,7 +81,7 @@ from flatfree.controllers.vehicle import (
 )
 from flatfree.metrics import wrap_angle
 from flatfree.models.bicycle3dof import Bicycle3DoFParams, rk4_step_into
-from flatfree.models.tendof import TenDoF, TenDoFState, rk4_step_kernel
+from flatfree.models.tendof import TenDoF, TenDoFState, drive_speed, rk4_step_kernel
 from flatfree.scenario import Scenario
 from flatfree.sensors import sense_step
 from flatfree.tracks import (
@@ -388,7 +388,10 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         c_ctrl += 1
         if c_ctrl == ctrl_every:
             c_ctrl = 0
-        tw, delta = actuate_step(tw_cmd, delta_cmd, truth[3], act_p, act_s)
+        # the power cap at the driveline's speed (a spinning driven wheel takes power too);
+        # the 3DoF plant has no wheel spins: its body speed
+        v_drive = drive_speed(x, mp) if plant == 0 else truth[3]
+        tw, delta = actuate_step(tw_cmd, delta_cmd, v_drive, act_p, act_s)
         for f in range(steer_faults.shape[0]):
             if steer_faults[f, 0] <= t < steer_faults[f, 1]:
                 lim = steer_faults[f, 2]

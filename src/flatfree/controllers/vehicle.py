@@ -321,7 +321,8 @@ class MfcNaturalSettings:
         price is the dallara_av21's speed-error RMS on LVMS, 0.025 -> 0.041 m/s (150: 0.060 for
         a further 20 % less torque rate). Lateral errors and completion rates do not move
         beyond the seeds' spread (100 seeds on Spa / Catalunya / LVMS: 56 / 97 / 93 completed
-        with 100, 58 / 92 / 92 with 50; benchmarks/README.md "Speed-loop window").
+        with 100, 58 / 92 / 92 with 50, both with the body-speed power cap of that day;
+        benchmarks/README.md "Speed-loop window").
     alpha_lat : float
         Input gain of the lateral ultra-local model e_y'' = F + alpha delta [(m/s^2) / rad];
         of the order of C_f / m (the direct effect of the front lateral force).

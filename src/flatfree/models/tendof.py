@@ -211,6 +211,7 @@ __all__ = [
     "TenDoFOptions",
     "TenDoFState",
     "Wheel",
+    "drive_speed",
     "rhs_kernel",
     "rk4_step_kernel",
     "simulate_kernel",
@@ -808,6 +809,27 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
     inv_tau = p[_INVTAUA]
     dx[_AXF] = (ax - axf) * inv_tau
     dx[_AYF] = (ay - ayf) * inv_tau
+
+
+@njit(**_JIT_NO_REFCOUNT)
+def drive_speed(x, p):
+    """Speed of the driveline in road units [m/s]: the speed at which the drive torque works.
+
+    A drive torque ``tw >= 0`` reaches the wheels in fixed shares ``s_i`` (``drive_front / 2``
+    on each front wheel, ``(1 - drive_front) / 2`` on each rear one: the open differentials of
+    :func:`rhs_kernel`), so the power it delivers is ``tw sum_i s_i Omega_i`` and an engine of
+    power P can give at most ``tw = P R_e / v_drive`` with
+
+        v_drive = R_e sum_i s_i Omega_i,
+
+    the speed to use in the actuators' power cap (:func:`flatfree.actuators.actuate_step`).
+    With the wheels rolling it is the body speed within the driven wheels' slip; with an
+    unloaded driven wheel spinning up (an open differential's inner wheel out of a corner) it
+    grows with that wheel's spin, and the power it may take falls, as it does on the car.
+    """
+    f = p[_DRVF]
+    return p[_RE] * (0.5 * f * (x[_OM] + x[_OM + 1])
+                     + 0.5 * (1.0 - f) * (x[_OM + 2] + x[_OM + 3]))
 
 
 @njit(**_JIT_NO_REFCOUNT)
