@@ -40,7 +40,7 @@ from numba import njit
 
 from flatfree._timing import best_time
 from flatfree.controllers.vehicle import MEAS, vehicle_step
-from flatfree.models.tendof import simulate_kernel
+from flatfree.models.tendof import NU, simulate_kernel
 from flatfree.scenario import Timing
 from flatfree.scenarios import named_scenario
 from flatfree.simulation import prepare, simulate
@@ -119,10 +119,10 @@ def main() -> None:
     tpf = prep.vehicle.tire_front.to_array()
     tpr = prep.vehicle.tire_rear.to_array()
     steps = len(tr_py) - 1
-    us = np.empty((steps, 6))
+    us = np.zeros((steps, NU))
     us[:, 0] = tr_py["torque"][:steps]
     us[:, 1] = tr_py["steer"][:steps]
-    us[:, 2:] = sc.road.mu if not sc.road.patches else np.nan
+    us[:, 2:6] = sc.road.mu if not sc.road.patches else np.nan  # flat road: bank 0
     if sc.road.patches:
         raise SystemExit("friction patches: not supported by this profile")
     xs = np.empty((steps + 1, prep.x0.size))

@@ -35,7 +35,8 @@ def _rich() -> Scenario:
                              "e_y": SensorChannel(noise_std=0.01, rate_hz=100.0,
                                                   delay_s=0.01)}),
         noise=False,
-        road=RoadSpec(mu=1.0, patches=(FrictionPatch(s_start_m=100.0, s_end_m=200.0, mu=0.5),)),
+        road=RoadSpec(mu=1.0, patches=(FrictionPatch(s_start_m=100.0, s_end_m=200.0, mu=0.5),),
+                      bank_deg=((0.0, 0.0), (80.0, -9.2), (400.0, -9.2))),
         faults=(Fault(kind="nan_measurement", channel="e_y", t_start_s=5.0, duration_s=0.05),
                 Fault(kind="steer_limit", t_start_s=8.0, duration_s=1.0, value=0.01)),
         seed=42,
@@ -106,6 +107,19 @@ def test_malformed_files_name_the_line_and_the_field(text, words):
 def test_invalid_scenarios(kwargs, match):
     with pytest.raises(ValueError, match=match):
         Scenario(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("bank", "match"),
+    [
+        (((0.0, 1.0), (0.0, 2.0)), r"road.bank_deg\[1\] = \(0.0, 2.0\): s must increase"),
+        (((0.0, 95.0),), r"road.bank_deg\[0\] = \(0.0, 95.0\): .*within \(-90, 90\)"),
+        (((1.0,),), r"road.bank_deg\[0\] = \(1.0,\): expected a pair"),
+    ],
+)
+def test_bad_bank_profiles_are_refused(bank, match):
+    with pytest.raises(ValueError, match=match):
+        RoadSpec(bank_deg=bank)
 
 
 def test_reference_needs_exactly_one_source():

@@ -115,8 +115,9 @@ def _model(name: str, ackermann: bool) -> TenDoF:
     return TenDoF(load_vehicle(name), TenDoFOptions(ackermann=ackermann))
 
 
-_MIRROR_U = np.array([1.0, -1.0, 1.0, 1.0, 1.0, 1.0])
-_MIRROR_UPERM = np.array([0, 1, 3, 2, 5, 4])
+# the bank raises the other side; the heading to the road changes sign
+_MIRROR_U = np.array([1.0, -1.0, 1.0, 1.0, 1.0, 1.0, -1.0, -1.0])
+_MIRROR_UPERM = np.array([0, 1, 3, 2, 5, 4, 6, 7])
 
 
 @settings(max_examples=40, derandomize=True, deadline=None)
@@ -127,7 +128,8 @@ _MIRROR_UPERM = np.array([0, 1, 3, 2, 5, 4])
 )
 def test_rhs_commutes_with_the_mirror(seed, name, ackermann):
     """rhs(M x, M u) = M rhs(x, u) at random states and inputs, M the left-right mirror
-    (sign of y, psi, vy, r, roll, ay; left and right wheels and their friction swapped).
+    (sign of y, psi, vy, r, roll, ay and the road's bank; left and right wheels and their
+    friction swapped).
 
     Random states cover standstill to 40 m/s, large slips, roll/pitch/heave off equilibrium,
     drive and brake torques and per-wheel friction; seeded (derandomized hypothesis, numpy
@@ -143,7 +145,8 @@ def test_rhs_commutes_with_the_mirror(seed, name, ackermann):
     x[S.kappa_fl:S.kappa_rr + 1] = rng.uniform(-0.2, 0.2, 4)
     x[S.ax_filt:] = rng.uniform(-8.0, 8.0, 2)
     u = m.inputs(rng.uniform(-3000.0, 3000.0), rng.uniform(-0.4, 0.4),
-                 mu_wheels=rng.uniform(0.2, 1.2, 4))
+                 mu_wheels=rng.uniform(0.2, 1.2, 4), bank=rng.uniform(-0.4, 0.4),
+                 e_psi_road=rng.uniform(-0.3, 0.3))
     f = m.rhs(x, u)
     xm = (x * _MIRROR_SIGN)[_MIRROR_PERM]
     um = (u * _MIRROR_U)[_MIRROR_UPERM]
@@ -405,7 +408,7 @@ def test_ackermann_reduces_front_slip_angle_difference_at_low_speed():
 # API and validation
 # --------------------------------------------------------------------------------------------
 def test_layouts_and_params():
-    assert len(TenDoFState) == 22 and len(TenDoFInput) == 6
+    assert len(TenDoFState) == 22 and len(TenDoFInput) == 8
     assert [w.name for w in Wheel] == ["fl", "fr", "rl", "rr"]
     m = TenDoF(load_vehicle("bmw320i"))
     assert m.params.shape == (len(MP),)
@@ -427,8 +430,13 @@ def test_bad_arguments_raise_value_error(models):
         m.inputs(np.zeros(3), np.zeros(4))
     with pytest.raises(ValueError, match="mu_wheels has shape"):
         m.inputs(0.0, 0.0, mu_wheels=[1.0, 1.0])
-    with pytest.raises(ValueError, match="expected last axis 6"):
+    with pytest.raises(ValueError, match="expected last axis 8"):
         m.simulate(x0, np.zeros((10, 2)))
+    with pytest.raises(ValueError, match="bank = 1.6 rad"):
+        m.inputs(0.0, 0.0, bank=1.6)
+    # the layout without the bank (6 entries) is a flat road, bit for bit
+    u6 = m.inputs(500.0, 0.05, n=3)[:, :6]
+    np.testing.assert_array_equal(m.simulate(x0, u6), m.simulate(x0, m.inputs(500.0, 0.05, n=3)))
     with pytest.raises(ValueError, match="dt = 0.0 s"):
         m.simulate(x0, m.inputs(0.0, 0.0, n=3), dt=0.0)
     with pytest.raises(ValueError, match="out has shape"):

@@ -316,3 +316,52 @@ def test_drive_speed_is_the_driven_wheels_speed_in_their_torque_shares(name):
     omegas[other[1]] = 5.0 / re  # a locked-ish undriven wheel does not count
     x[TenDoFState.omega_fl:TenDoFState.omega_fl + 4] = omegas
     assert drive_speed(x, m.params) == pytest.approx(0.5 * (60.0 + 20.0), rel=1e-15)
+
+
+def test_a_banked_turn_at_its_neutral_speed_needs_no_lateral_tyre_force():
+    """On a road banked by b the model's gravity has the in-plane part -g sin b along body y
+    (Model, item 7): a left-hand turn of in-plane curvature kappa driven at v with
+    v^2 kappa = g sin |b| (b < 0: the right side up) is held by gravity alone, so the car turns
+    with the kinematic steer L kappa at zero slip angles and a steady yaw rate v kappa. The same
+    inputs on a flat road need ~1 deg of slip angle. (With kappa the in-plane curvature of a
+    horizontal circle, cos b / R, this is the classical v^2 / R = g tan b.)"""
+    vp = load_vehicle("peugeot406")
+    m = TenDoF(vp)
+    v, kappa = 20.0, 0.01
+    bank = -math.asin(v * v * kappa / G)  # -24.1 deg
+    r = v * kappa
+    x0 = m.initial_state(v, vy=vp.lr * r, r=r)  # kinematic turn: no rear slip angle
+    # the road's tangent is the CoG's course, at the sideslip atan(lr kappa) from the heading
+    e_road = -math.atan(vp.lr * kappa)
+    n = 4000  # 4 s at 1 ms
+    # the resistance of the road (rolling on the normal load, drag) as drive torque
+    tw = vp.wheel_radius * (vp.rolling_resistance * vp.mass * G * math.cos(bank)
+                            + 0.5 * vp.air_density * vp.drag_area * v * v)
+    u_bank = m.inputs(tw, vp.wheelbase * kappa, bank=bank, e_psi_road=e_road)
+    banked = m.simulate(x0, np.tile(u_bank, (n, 1)))
+    flat = m.simulate(x0, m.inputs(tw, vp.wheelbase * kappa, n=n))
+    end_b = m.diagnostics(banked[-1], u_bank)
+    end_f = m.diagnostics(flat[-1], m.inputs(tw, vp.wheelbase * kappa))
+    assert np.max(np.abs(end_f["alpha"])) > math.radians(0.5)
+    assert np.max(np.abs(end_b["alpha"])) < 0.05 * np.max(np.abs(end_f["alpha"]))
+    assert abs(np.sum(end_b["fy"])) < 0.01 * vp.mass * v * v * kappa
+    # gravity across the road does no work: the speed holds on the resistance's torque
+    assert math.hypot(banked[-1, TenDoFState.vx], banked[-1, TenDoFState.vy]) == pytest.approx(
+        v, rel=2e-3)
+    assert banked[-1, TenDoFState.r] == pytest.approx(r, rel=0.01)
+    # the wheels carry the normal part of the weight only (static loads and transfers)
+    assert np.sum(end_b["fz"]) == pytest.approx(vp.mass * G * math.cos(bank), rel=0.01)
+
+
+def test_on_a_bank_a_car_without_steer_drifts_down_the_slope():
+    """Sign convention: bank > 0 raises the left side (like the roll phi), so a car going
+    straight with no steer drifts to the right (vy < 0, y falling while heading along +x)
+    and rolls towards the low side is held by its tyres, which push up the slope (F_y > 0)."""
+    vp = load_vehicle("peugeot406")
+    m = TenDoF(vp)
+    xs = m.simulate(m.initial_state(20.0), m.inputs(300.0, 0.0, bank=math.radians(10.0), n=1000))
+    assert xs[-1, TenDoFState.vy] < -0.05 and xs[-1, TenDoFState.y] < -0.05
+    d = m.diagnostics(xs[-1], m.inputs(300.0, 0.0, bank=math.radians(10.0)))
+    assert np.sum(d["fy"]) > 0.0
+    # the low (right) side carries more load
+    assert d["fz"][Wheel.fr] + d["fz"][Wheel.rr] > d["fz"][Wheel.fl] + d["fz"][Wheel.rl]

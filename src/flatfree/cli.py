@@ -309,6 +309,9 @@ torque_delay_s = 0.0
 
 [road]
 mu = 1.0
+# bank_deg = [[0.0, 0.0], [80.0, -9.2], [400.0, -9.2], [480.0, 0.0]]
+#                           # road bank (s [m], bank [deg]) along the path, linear between the
+#                           # points; > 0 raises the left side (10DoF plant); none: flat
 # [[road.patch]]            # a stretch of lower friction along the path
 # s_start_m = 500.0
 # s_end_m = 600.0

@@ -52,6 +52,7 @@ TOML layout (every key optional except where a section says so; units in the key
 
     [road]
     mu = 1.0
+    bank_deg = [[0.0, 0.0], [80.0, -9.2]]  # (s [m], bank [deg]) points; > 0 raises the left
     [[road.patch]]                  # friction patches along the reference path
     s_start_m = 500.0
     s_end_m = 600.0
@@ -69,6 +70,7 @@ A malformed file raises ``ValueError`` naming the file, the line and the field.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 import tomllib
 from collections.abc import Mapping
@@ -217,14 +219,38 @@ class FrictionPatch:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class RoadSpec:
-    """Road friction: a base ``mu`` and patches along the path."""
+    """Road friction (a base ``mu`` and patches along the path) and the road's bank.
+
+    ``bank_deg``: the road's bank angle along the path as points ``(s [m], bank [deg])``,
+    linearly interpolated between them and held beyond the first and last (on a closed track
+    ``s`` is taken modulo the lap); ``bank > 0`` raises the left side, so a left-hand turn
+    banked for speed has ``bank < 0`` (the 10DoF model's input ``bank``,
+    :mod:`flatfree.models.tendof`, Model item 7; the 3DoF plant ignores it). Empty: a flat
+    road. Degrees here, at the edge of a file a user writes; radians inside.
+    """
 
     mu: float = 1.0
     patches: tuple[FrictionPatch, ...] = ()
+    bank_deg: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
         positive("road.mu", self.mu, "-")
         object.__setattr__(self, "patches", tuple(self.patches))
+        points = []
+        for k, pt in enumerate(self.bank_deg):
+            try:
+                s_m, b = (float(v) for v in pt)
+            except (TypeError, ValueError):
+                raise ValueError(f"road.bank_deg[{k}] = {pt!r}: expected a pair "
+                                 "(s [m], bank [deg])") from None
+            if not (math.isfinite(s_m) and math.isfinite(b) and abs(b) < 90.0):
+                raise ValueError(f"road.bank_deg[{k}] = {pt!r}: s must be finite and the bank "
+                                 "within (-90, 90) deg")
+            if points and s_m <= points[-1][0]:
+                raise ValueError(f"road.bank_deg[{k}] = {pt!r}: s must increase strictly "
+                                 f"(the point before is at {points[-1][0]!r} m)")
+            points.append((s_m, b))
+        object.__setattr__(self, "bank_deg", tuple(points))
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -344,6 +370,8 @@ def scenario_to_toml(sc: Scenario) -> str:
         doc["sensors"] = {k: _plain(c) for k, c in sc.sensors.channels.items()}
     doc["actuators"] = _plain(sc.actuators)
     road: dict[str, Any] = {"mu": sc.road.mu}
+    if sc.road.bank_deg:
+        road["bank_deg"] = [list(pt) for pt in sc.road.bank_deg]
     if sc.road.patches:
         road["patch"] = [_plain(p) for p in sc.road.patches]
     doc["road"] = road

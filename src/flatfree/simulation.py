@@ -81,7 +81,7 @@ from flatfree.controllers.vehicle import (
 )
 from flatfree.metrics import wrap_angle
 from flatfree.models.bicycle3dof import Bicycle3DoFParams, rk4_step_into
-from flatfree.models.tendof import TenDoF, TenDoFState, drive_speed, rk4_step_kernel
+from flatfree.models.tendof import NU, TenDoF, TenDoFState, drive_speed, rk4_step_kernel
 from flatfree.scenario import Scenario
 from flatfree.sensors import sense_step
 from flatfree.tracks import (
@@ -223,15 +223,15 @@ def _time_at(table, s, i):
 # loop state kept between calls of _closed_loop (a Python controller pauses the loop)
 (_LS_INIT, _LS_SEG, _LS_SEG_M, _LS_S_PREV, _LS_S_UNW, _LS_S_PREV_M, _LS_S_UNW_M, _LS_T_REF,
  _LS_T_CTRL, _LS_TW_APP, _LS_DE_APP, _LS_TW_CMD, _LS_DE_CMD, _LS_ME_Y, _LS_N_LOG,
- _LS_RESUME, _LS_ST_ROW, _LS_VX_P, _LS_VY_P, _LS_R_P) = range(20)
-_LS_N = 20
+ _LS_RESUME, _LS_ST_ROW, _LS_VX_P, _LS_VY_P, _LS_R_P, _LS_BANK_ROW) = range(21)
+_LS_N = 21
 _PAUSE = 3  # status code: a Python controller must give the commands for step k
 
 
 def _loop_scratch(n: int) -> tuple:
     """Work arrays of :func:`_closed_loop` for a plant of ``n`` states (allocated by the caller:
     the loop itself allocates nothing)."""
-    return (np.empty(n), np.empty((5, n)), np.empty((4, 6)), np.zeros(6), np.empty(_N_SENS),
+    return (np.empty(n), np.empty((5, n)), np.empty((4, 6)), np.zeros(NU), np.empty(_N_SENS),
             np.empty(_N_SENS))
 
 
@@ -240,7 +240,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                  kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw,
                  cref_table, g, closed, sched_path, st_table, s_end,
                  sens_table, noise, hist, held, act_p, act_s,
-                 mu_base, patches, nan_faults, steer_faults,
+                 mu_base, patches, bank_table, nan_faults, steer_faults,
                  log, log_every, half_width, k0, ls, meas, crow, scratch):
     """The whole closed loop (module docstring). Returns (status code, step, rows logged).
 
@@ -278,6 +278,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         ls[_LS_VX_P] = math.nan  # no previous velocity: the first acceleration is unknown
         ls[_LS_VY_P] = math.nan
         ls[_LS_R_P] = math.nan
+        ls[_LS_BANK_ROW] = 0.0
     seg = int(ls[_LS_SEG])
     seg_m = int(ls[_LS_SEG_M])
     s_prev = ls[_LS_S_PREV]
@@ -296,6 +297,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     vx_p = ls[_LS_VX_P]
     vy_p = ls[_LS_VY_P]
     r_p = ls[_LS_R_P]
+    bank_row = int(ls[_LS_BANK_ROW])
     inv_dt = 1.0 / dt
     form_ey_ddot = wants_ey_ddot(kind, coef)
     resume = ls[_LS_RESUME] == 1.0
@@ -407,6 +409,9 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         u[3] = mu_f
         u[4] = mu_r
         u[5] = mu_r
+        if bank_table.shape[0] > 0:  # the road's bank at the CoG (else u[6] stays 0: flat)
+            u[6], bank_row = _time_at(bank_table, s, bank_row)
+            u[7] = e_psi  # the heading to the road's tangent orients the bank's slope
         if c_log == 0 and n_log < log.shape[0]:
             row = log[n_log]
             row[0] = t
@@ -460,6 +465,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     ls[_LS_VX_P] = vx_p
     ls[_LS_VY_P] = vy_p
     ls[_LS_R_P] = r_p
+    ls[_LS_BANK_ROW] = bank_row
     return status, k, n_log
 
 
@@ -797,6 +803,9 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
     act_s = actuator_state(prep.actuators, timing.plant_dt_s, steer0=prep.steer0)
     patches = np.array([[p.s_start_m, p.s_end_m, p.mu] for p in sc.road.patches],
                        dtype=float).reshape(-1, 3)
+    # the road's bank (s [m], bank [rad]) for the 10DoF plant (the 3DoF plant has no input for it)
+    bank_table = np.array(sc.road.bank_deg if plant == 0 else (), dtype=float).reshape(-1, 2)
+    bank_table[:, 1] = np.radians(bank_table[:, 1])
     nan_f = np.array([[SENSOR_CHANNELS.index(f.channel), f.t_start_s,
                        f.t_start_s + f.duration_s] for f in sc.faults
                       if f.kind == "nan_measurement"], dtype=float).reshape(-1, 3)
@@ -831,8 +840,8 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
             ctrl.s_lat, ctrl.coef, ctrl.f_lon, ctrl.f_lat, ctrl.f_yaw, cref, ref.path.geometry,
             ref.path.closed, prep.path_schedule, st_table, s_end,
             sens.table, sens.noise, sens.history, sens.held, act_p, act_s,
-            sc.road.mu, patches, nan_f, steer_f, log, timing.log_every, DEFAULT_HALF_WIDTH_M,
-            k0, ls, meas, crow, scratch)
+            sc.road.mu, patches, bank_table, nan_f, steer_f, log, timing.log_every,
+            DEFAULT_HALF_WIDTH_M, k0, ls, meas, crow, scratch)
         if code != _PAUSE:
             break
         applied[0] = ls[_LS_TW_APP]

@@ -34,7 +34,7 @@ ax_filt, ay_filt    m/s^2     low-passed body accelerations (quasi-static load t
 "10DoF" counts the six body DoF x, y, yaw, heave, roll, pitch and the four wheel spins; the
 four relaxed slips and the two filtered accelerations are first-order auxiliary states.
 
-Inputs (:class:`TenDoFInput`, 6 entries)
+Inputs (:class:`TenDoFInput`, 8 entries)
 -----------------------------------------
 ``tw`` [N m] total wheel torque: ``>= 0`` drives, split equally on the driven axle
 (``VehicleParams.drive``; an open differential, [VM] 1.7); ``< 0`` brakes, ``|tw|`` split
@@ -43,7 +43,14 @@ against the wheel's spin with a smooth sign. ``delta`` [rad] road-wheel steer an
 front axle (parallel steer, or Ackermann with :attr:`TenDoFOptions.ackermann`).
 ``mu_fl .. mu_rr`` [-] road friction scale under each wheel, ``mu_road / mu_ref`` (1 = the
 road of the tyre data): it scales the Magic Formula peaks and may vary in time or along the
-road (a wet patch). Input limits are *not* in the model (the actuators clip them).
+road (a wet patch). ``bank`` [rad] the road's bank (cross-slope) angle under the car, as a
+roll of the road surface about the car's x axis (``> 0`` raises the left side, like ``phi``;
+a left-hand turn banked for speed has ``bank < 0``); 0: a flat road (Model, item 7).
+``e_psi_road`` [rad] the car's heading relative to the road's tangent there (``psi`` minus
+the road's heading; the closed loop passes its Frenet heading error): it turns the bank's
+slope, which falls across the road, into body axes (0: across the body). An input of 6
+entries is a flat road, of 7 a bank taken across the body. Input limits are *not* in the
+model (the actuators clip them).
 
 Model
 -----
@@ -117,6 +124,20 @@ Model
    (``tau_b =`` :attr:`TenDoFOptions.brake_time_constant`), whatever the brake torque:
    the sheet's condition ``e >= T_b dt / (2.785 I_w)`` then holds for ``dt <= 2.785 tau_b``.
    Wheels may spin backwards (no clamp), so the model can reverse.
+7. Road bank ``b`` (inputs ``bank`` and ``e_psi_road``; [Raj] Ch. 2, the bank-angle term of
+   the lateral model): the road surface is locally a plane rolled by ``b`` about the road's
+   tangent, and the car moves in it (paths and curvatures are taken in that plane: a
+   horizontal circle of radius R on a bank has the in-plane curvature cos b / R, so the
+   neutral speed of v^2 kappa = g sin b is the classical v^2 / R = g tan b). Gravity has the
+   in-plane part ``g sin b`` across the road towards its low side, in body axes
+   ``(-g sin b sin e, -g sin b cos e)`` with ``e = e_psi_road``, added to ``vx'`` and
+   ``vy'`` (the tyre forces hold the car against it; the accelerations that load the body,
+   ``a_x``, ``a_y`` and their filtered values, are the tyre forces over the mass, which is
+   what the springs feel), and the normal part ``g cos b``, which replaces ``g`` in the
+   static wheel loads (``F_z0 cos b``) and the body's gravity moments of roll and pitch.
+   The springs keep their static deflection (the body's heave to the lighter normal load,
+   ``1 - cos b`` = 6 % of the static deflection at 20 deg, is neglected); the road's twist
+   where the bank changes is not modelled. ``b = 0`` gives the flat-road model bit for bit.
 
 Low speed and stable step
 -------------------------
@@ -258,6 +279,8 @@ class TenDoFInput(enum.IntEnum):
     mu_fr = 3
     mu_rl = 4
     mu_rr = 5
+    bank = 6
+    e_psi_road = 7
 
 
 class Wheel(enum.IntEnum):
@@ -348,7 +371,7 @@ NDIAG = len(DIAG_FIELDS)
 _X, _Y, _PSI, _VX, _VY, _R = 0, 1, 2, 3, 4, 5
 _Z, _ZD, _PHI, _PHID, _TH, _THD = 6, 7, 8, 9, 10, 11
 _OM, _KA, _AXF, _AYF = 12, 16, 20, 21
-_TW, _DELTA, _MU = 0, 1, 2
+_TW, _DELTA, _MU, _BANK, _EPSI_ROAD = 0, 1, 2, 6, 7
 _M = int(MP.m)
 _MS = int(MP.m_s)
 _MUA = int(MP.m_u_axle)
@@ -517,6 +540,19 @@ def _steer_trig(u, p):
 
 
 @njit(**_JIT_NO_REFCOUNT)
+def _bank_trig(u):
+    """The road bank's ``(cos b, sin b sin e, sin b cos e)`` (Model, item 7; ``e`` the heading
+    to the road): exactly (1, 0, 0) on a flat road, whose results are then those of the model
+    without the bank, bit for bit."""
+    bank = u[_BANK]
+    if bank == 0.0:
+        return 1.0, 0.0, 0.0
+    sb = math.sin(bank)
+    e = u[_EPSI_ROAD]
+    return math.cos(bank), sb * math.sin(e), sb * math.cos(e)
+
+
+@njit(**_JIT_NO_REFCOUNT)
 def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     """Time derivative of the 10DoF state (module docstring), written into ``dx``.
 
@@ -524,7 +560,7 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     ----------
     x : float64[22]
         State, :class:`TenDoFState` layout.
-    u : float64[6]
+    u : float64[8]
         Input, :class:`TenDoFInput` layout (not clipped, not checked).
     p : float64[len(MP)]
         Model parameters, :class:`MP` layout.
@@ -544,12 +580,14 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     [VM] sections 1.2-1.9; [P12] 4.3.2 and 7.2.
     """
     cl, sl, cr_, sr_ = _steer_trig(u, p)
-    _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, True)
+    cb, sbx, sby = _bank_trig(u)
+    _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, True)
 
 
 @njit(**_JIT_NO_REFCOUNT)
-def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
-    """:func:`rhs_kernel` with the steer angles' cos and sin given (:func:`_steer_trig`).
+def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, plain_slip):
+    """:func:`rhs_kernel` with the steer angles' cos and sin given (:func:`_steer_trig`), and
+    the road bank's (:func:`_bank_trig`).
 
     ``plain_slip = False`` skips the diagnostic plain slip ratio (``diag[:, 5]`` then holds the
     friction scales): the inner RK4 stages, whose diagnostics the next stage overwrites.
@@ -573,7 +611,7 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
     tf = p[_TF]
     tr = p[_TR]
     re = p[_RE]
-    g = p[_G]
+    g = p[_G] * cb  # gravity normal to the (banked) road; its in-plane part enters vy'
 
     # ---- aerodynamics ([VM] 1.9) ----
     fd = p[_DRAG] * vx * abs(vx)  # F_D = 1/2 rho C_d A vx |vx|
@@ -656,7 +694,7 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
         # (m_u h_u a_x) / (2 L) with m_u = 2 m_u,i ([VM] 1.5 moment balance); the constant
         # factors q_lat, q_long are precomputed (_build_params)
         dfq = -side * q_lat * ayf + dlong * p[_QLONG] * axf
-        fz = fz0 + dfs + dfarb + dfq
+        fz = fz0 * cb + dfs + dfarb + dfq
         if fz < 0.0:
             fz = 0.0  # lift-off
         f_heave += dfs
@@ -790,6 +828,9 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, plain_slip):
     dx[_PSI] = r
     dx[_VX] = ax + r * vy
     dx[_VY] = ay - r * vx
+    if sby != 0.0 or sbx != 0.0:  # gravity down the bank's slope (Model, item 7)
+        dx[_VX] -= p[_G] * sbx
+        dx[_VY] -= p[_G] * sby
     dx[_R] = mz * p[_INVIZ]
 
     # ---- sprung body ([VM] 1.4, module docstring item 2) ----
@@ -848,17 +889,18 @@ def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     # the input is held over the step: the steer's cos and sin once, not once per stage; the
     # diagnostic plain slip ratios only in the last stage (the one left in diag)
     cl, sl, cr_, sr_ = _steer_trig(u, p)
-    _rhs_steered(x, u, p, tpf, tpr, k1, diag, cl, sl, cr_, sr_, False)
+    cb, sbx, sby = _bank_trig(u)
+    _rhs_steered(x, u, p, tpf, tpr, k1, diag, cl, sl, cr_, sr_, cb, sbx, sby, False)
     h2 = 0.5 * dt
     for i in range(n):
         xt[i] = x[i] + h2 * k1[i]
-    _rhs_steered(xt, u, p, tpf, tpr, k2, diag, cl, sl, cr_, sr_, False)
+    _rhs_steered(xt, u, p, tpf, tpr, k2, diag, cl, sl, cr_, sr_, cb, sbx, sby, False)
     for i in range(n):
         xt[i] = x[i] + h2 * k2[i]
-    _rhs_steered(xt, u, p, tpf, tpr, k3, diag, cl, sl, cr_, sr_, False)
+    _rhs_steered(xt, u, p, tpf, tpr, k3, diag, cl, sl, cr_, sr_, cb, sbx, sby, False)
     for i in range(n):
         xt[i] = x[i] + dt * k3[i]
-    _rhs_steered(xt, u, p, tpf, tpr, k4, diag, cl, sl, cr_, sr_, True)
+    _rhs_steered(xt, u, p, tpf, tpr, k4, diag, cl, sl, cr_, sr_, cb, sbx, sby, True)
     h6 = dt / 6.0
     for i in range(n):
         out[i] = x[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
@@ -866,7 +908,7 @@ def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
 
 @njit(**_JIT)
 def simulate_kernel(x0, us, dt, p, tpf, tpr, xs):
-    """Fixed-step RK4 over the input sequence ``us`` (n, 6), writing states into ``xs`` (n+1, 22).
+    """Fixed-step RK4 over the input sequence ``us`` (n, 8), writing states into ``xs`` (n+1, 22).
 
     ``xs[0] = x0``; the input ``us[k]`` is held over step k. Returns the number of steps done:
     ``n`` on success, fewer if a state became non-finite (that step's row is written, the
@@ -921,17 +963,26 @@ def _as_state(x) -> np.ndarray:
 
 def _check_inputs(u, shape_what: str) -> np.ndarray:
     a = np.ascontiguousarray(np.asarray(u, dtype=np.float64))
+    if a.ndim >= 1 and a.shape[-1] in (NU - 2, NU - 1):  # without the bank or its heading
+        a = np.concatenate((a, np.zeros((*a.shape[:-1], NU - a.shape[-1]))), axis=-1)
     if a.shape[-1:] != (NU,):
         raise ValueError(
             f"{shape_what} has shape {a.shape}: expected last axis {NU} = "
-            "[tw (N m), delta (rad), mu_fl, mu_fr, mu_rl, mu_rr (-)] (TenDoFInput; "
-            "build it with TenDoF.inputs)"
+            "[tw (N m), delta (rad), mu_fl, mu_fr, mu_rl, mu_rr (-), bank (rad), "
+            f"e_psi_road (rad)] (TenDoFInput; {NU - 2} entries: a flat road; build it with "
+            "TenDoF.inputs)"
         )
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{shape_what}: all inputs must be finite [N m, rad, -]")
-    if np.any(a[..., _MU:] <= 0.0):
-        bad = float(a[..., _MU:][a[..., _MU:] <= 0.0].ravel()[0])
+    mu = a[..., _MU:_MU + 4]
+    if np.any(mu <= 0.0):
+        bad = float(mu[mu <= 0.0].ravel()[0])
         raise ValueError(f"{shape_what}: road friction scale mu = {bad!r} (-): must be > 0")
+    bank = a[..., _BANK]
+    if np.any(np.abs(bank) >= 0.5 * math.pi):
+        bad = float(bank[np.abs(bank) >= 0.5 * math.pi].ravel()[0])
+        raise ValueError(f"{shape_what}: road bank angle bank = {bad!r} rad: must be within "
+                         "(-pi/2, pi/2)")
     return a
 
 
@@ -1016,7 +1067,8 @@ class TenDoF:
         return s
 
     @staticmethod
-    def inputs(tw, delta, mu=1.0, *, mu_wheels=None, n: int | None = None) -> np.ndarray:
+    def inputs(tw, delta, mu=1.0, *, mu_wheels=None, bank=0.0, e_psi_road=0.0,
+               n: int | None = None) -> np.ndarray:
         """Build an input array in the :class:`TenDoFInput` layout.
 
         Parameters
@@ -1031,19 +1083,24 @@ class TenDoF:
         mu_wheels : array_like (4,) or (n, 4), optional
             Road friction scale [-] per wheel, :class:`Wheel` order (a split-mu road, a wet
             patch under one side).
+        bank : float or array_like (n,)
+            Road bank angle [rad] (module docstring, Inputs; 0: flat road).
+        e_psi_road : float or array_like (n,)
+            The car's heading relative to the road's tangent [rad] (orients the bank's slope).
         n : int, optional
             Number of steps. If None it is taken from the array arguments, and a single
-            input of shape (6,) is returned when all of them are scalars (or ``mu_wheels``
+            input of shape (8,) is returned when all of them are scalars (or ``mu_wheels``
             has shape (4,)).
 
         Returns
         -------
-        ndarray, shape (6,) or (n, 6)
+        ndarray, shape (8,) or (n, 8)
 
         Raises
         ------
         ValueError
-            Inconsistent lengths, a non-finite value or a friction scale <= 0.
+            Inconsistent lengths, a non-finite value, a friction scale <= 0 or a bank angle
+            of 90 deg or more.
         """
         tw_a = np.asarray(tw, dtype=np.float64)
         de_a = np.asarray(delta, dtype=np.float64)
@@ -1057,10 +1114,13 @@ class TenDoF:
             mu_a = np.asarray(mu_wheels, dtype=np.float64)
             if mu_a.ndim not in (1, 2) or mu_a.shape[-1] != 4:
                 raise ValueError(f"mu_wheels has shape {mu_a.shape}: expected (4,) or (n, 4)")
-        for name, a in (("tw", tw_a), ("delta", de_a)):
+        bank_a = np.asarray(bank, dtype=np.float64)
+        ep_a = np.asarray(e_psi_road, dtype=np.float64)
+        scalars = (("tw", tw_a), ("delta", de_a), ("bank", bank_a), ("e_psi_road", ep_a))
+        for name, a in scalars:
             if a.ndim > 1:
                 raise ValueError(f"{name} has shape {a.shape}: expected a scalar or (n,)")
-        lengths = {a.shape[0] for a in (tw_a, de_a) if a.ndim == 1}
+        lengths = {a.shape[0] for _, a in scalars if a.ndim == 1}
         if mu_a.ndim == 2:
             lengths.add(mu_a.shape[0])
         if n is not None:
@@ -1071,12 +1131,14 @@ class TenDoF:
         out = np.empty(shape)
         out[..., _TW] = tw_a
         out[..., _DELTA] = de_a
-        out[..., _MU:] = mu_a
+        out[..., _MU:_MU + 4] = mu_a
+        out[..., _BANK] = bank_a
+        out[..., _EPSI_ROAD] = ep_a
         return _check_inputs(out, "u")
 
     # ----- dynamics -----
     def rhs(self, x, u) -> np.ndarray:
-        """Time derivative of the state ``x`` (22,) under the input ``u`` (6,)."""
+        """Time derivative of the state ``x`` (22,) under the input ``u`` (8,)."""
         xa = _as_state(x)
         ua = _check_inputs(u, "u")
         if ua.shape != (NU,):
@@ -1091,9 +1153,10 @@ class TenDoF:
 
         Parameters
         ----------
-        u : array_like (6,) or callable
-            A constant input, or ``u(t) -> array (6,)`` (e.g. a zero-order hold of a sampled
-            sequence). The input is not validated at every call when callable.
+        u : array_like (8,) or callable
+            A constant input, or ``u(t) -> array (8,)`` (e.g. a zero-order hold of a sampled
+            sequence). The input is not validated (though completed to 8 entries) at every call
+            when callable.
 
         Returns
         -------
@@ -1105,6 +1168,8 @@ class TenDoF:
             def fun(t: float, x: np.ndarray) -> np.ndarray:
                 dx = np.empty(NX)
                 ut = np.ascontiguousarray(u(t), dtype=np.float64)
+                if ut.shape[0] < NU:  # without the bank entries: the kernel reads them
+                    ut = np.concatenate((ut, np.zeros(NU - ut.shape[0])))
                 rhs_kernel(np.ascontiguousarray(x, dtype=np.float64), ut, p, tpf, tpr, dx, diag)
                 return dx
         else:
@@ -1119,7 +1184,7 @@ class TenDoF:
         return fun
 
     def step(self, x, u, dt: float = 1e-3) -> np.ndarray:
-        """One RK4 step of length ``dt`` [s] with the input ``u`` (6,) held: the new state."""
+        """One RK4 step of length ``dt`` [s] with the input ``u`` (8,) held: the new state."""
         xa = _as_state(x)
         ua = _check_inputs(u, "u")
         if ua.shape != (NU,):
@@ -1137,8 +1202,8 @@ class TenDoF:
         ----------
         x0 : array_like (22,)
             Initial state (:meth:`initial_state`).
-        u : array_like (n, 6)
-            Inputs per step (:meth:`inputs`).
+        u : array_like (n, 8)
+            Inputs per step (:meth:`inputs`; (n, 6): a flat road).
         dt : float
             Step [s], > 0 (default 1 ms; see the module docstring for stable steps).
         out : ndarray (n + 1, 22), optional
@@ -1183,7 +1248,7 @@ class TenDoF:
         Parameters
         ----------
         x : array_like (22,) or (n, 22)
-        u : array_like (6,) or (n, 6)
+        u : array_like (8,) or (n, 8) (6 entries: a flat road)
 
         Returns
         -------
@@ -1202,8 +1267,8 @@ class TenDoF:
         us = ua[None, :] if ua.ndim == 1 else ua
         if xs.ndim != 2 or xs.shape[1] != NX or us.shape[0] != xs.shape[0]:
             raise ValueError(
-                f"x has shape {xa.shape} and u {ua.shape}: expected (22,) and (6,), or "
-                "(n, 22) and (n, 6)"
+                f"x has shape {xa.shape} and u {ua.shape}: expected (22,) and (8,), or "
+                "(n, 22) and (n, 8)"
             )
         if not np.all(np.isfinite(xs)):
             raise ValueError("x: states must be finite")
