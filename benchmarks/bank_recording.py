@@ -23,6 +23,7 @@ import warnings
 import numpy as np
 from scipy.spatial import cKDTree
 
+from flatfree.cli import steer_rms_vs_recorded_deg
 from flatfree.metrics import DEFAULT_STARTUP_S, compute_metrics
 from flatfree.scenarios import named_scenario, recorded_steer
 from flatfree.simulation import prepare, simulate
@@ -50,10 +51,11 @@ def bank_profile(sc) -> tuple[tuple[float, float], ...]:
 
 
 def steer_figures(tr, sc) -> tuple[float, float, float]:
+    """RMS of steer - driver [deg] (as ``flatfree run --recording``), slope, correlation."""
     rec = recorded_steer(tr["t_ref"], sc)
+    rms = steer_rms_vs_recorded_deg(tr, rec)
     keep = (tr.time >= tr.time[0] + DEFAULT_STARTUP_S) & np.isfinite(rec)
     sim, drv = np.asarray(tr["steer"])[keep], rec[keep]
-    rms = float(np.degrees(np.sqrt(np.mean((sim - drv) ** 2))))
     slope = float(np.dot(sim, drv) / np.dot(drv, drv))
     corr = float(np.corrcoef(sim, drv)[0, 1])
     return rms, slope, corr
