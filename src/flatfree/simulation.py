@@ -59,6 +59,7 @@ import warnings
 from dataclasses import dataclass
 from typing import Protocol
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -777,7 +778,10 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
     Trajectory
         Named signals (:class:`LOG` columns in lower case, plus ``lateral_error``,
         ``yaw_error`` and ``course_error``, the direction of the CoG velocity minus the path
-        heading), status and its time, and ``meta`` (real-time factor, wall time).
+        heading), status and its time, and ``meta``: ``real_time_factor`` (simulated over wall
+        time of the loop) and ``wall_time_s``, which leave out compiling the loop or loading
+        it from numba's cache (``compile_time_s``; ``compiled_new_loop`` says whether this
+        call did it, ``compiled_while_timed`` that the timed run compiled nothing more).
     """
     if controller is not None and not callable(getattr(controller, "step", None)):
         raise ValueError(f"controller = {controller!r}: expected an object with a step(t, "
@@ -831,17 +835,27 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
     s_end = float(s_path[-1]) - 0.1  # 10 cm short of the end: the projection saturates there
     if controller is not None and callable(getattr(controller, "reset", None)):
         controller.reset()
+
+    def loop_args(k0: int) -> tuple:
+        return (plant, x, mp, tpf, tpr, bp, vehicle.lf, vehicle.lr, timing.plant_dt_s,
+                prep.n_steps, timing.control_every, ctrl.kind, ctrl.p_lon, ctrl.s_lon,
+                ctrl.p_lat, ctrl.s_lat, ctrl.coef, ctrl.f_lon, ctrl.f_lat, ctrl.f_yaw, cref,
+                ref.path.geometry, ref.path.closed, prep.path_schedule, st_table, s_end,
+                sens.table, sens.noise, sens.history, sens.held, act_p, act_s,
+                sc.road.mu, patches, bank_table, nan_f, steer_f, log, timing.log_every,
+                DEFAULT_HALF_WIDTH_M, k0, ls, meas, crow, scratch)
+
+    # compile the loop (or load it from numba's cache) before the clock starts: the real-time
+    # factor is the loop's, not the compiler's (a fresh clone's first run compiles for ~10 s)
+    t_compile = time.perf_counter()
+    compiled_before = len(_closed_loop.signatures)
+    _closed_loop.compile(tuple(numba.typeof(a) for a in loop_args(0)))
+    compile_s = time.perf_counter() - t_compile
+    compiled = len(_closed_loop.signatures)
     t0 = time.perf_counter()
     k0 = 0
     while True:
-        code, k_stop, rows = _closed_loop(
-            plant, x, mp, tpf, tpr, bp, vehicle.lf, vehicle.lr, timing.plant_dt_s,
-            prep.n_steps, timing.control_every, ctrl.kind, ctrl.p_lon, ctrl.s_lon, ctrl.p_lat,
-            ctrl.s_lat, ctrl.coef, ctrl.f_lon, ctrl.f_lat, ctrl.f_yaw, cref, ref.path.geometry,
-            ref.path.closed, prep.path_schedule, st_table, s_end,
-            sens.table, sens.noise, sens.history, sens.held, act_p, act_s,
-            sc.road.mu, patches, bank_table, nan_f, steer_f, log, timing.log_every,
-            DEFAULT_HALF_WIDTH_M, k0, ls, meas, crow, scratch)
+        code, k_stop, rows = _closed_loop(*loop_args(k0))
         if code != _PAUSE:
             break
         applied[0] = ls[_LS_TW_APP]
@@ -876,6 +890,11 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
         "track": sc.reference.track or sc.reference.recording,
         "real_time_factor": sim_time / wall if wall > 0 else math.nan,
         "wall_time_s": wall,
+        # time to compile the loop or load it from the cache, outside wall_time_s; and
+        # whether the timed run compiled anything more (it should not)
+        "compile_time_s": compile_s,
+        "compiled_new_loop": compiled > compiled_before,
+        "compiled_while_timed": len(_closed_loop.signatures) > compiled,
     }
     return Trajectory(time=log[:, LOG.T], signals=signals, units=units, status=status,
                       status_time=None if status is Status.COMPLETED else sim_time, meta=meta)
