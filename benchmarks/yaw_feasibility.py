@@ -160,7 +160,7 @@ def _smoothed(args, lengths: list[float]) -> None:
         for track in args.tracks.split(","):
             bundled = load_track(track)
             own = LVMS_SMOOTHING_LENGTH if track.upper() == "LVMS" else DEFAULT_SMOOTHING_LENGTH
-            for length in (v for v in lengths if v >= own):  # never rougher than bundled
+            for length in lengths:
                 tk = load_track(track, smoothing_length=length)
                 path = os.path.join(folder, f"{track}_{length:g}.csv")
                 cols = (tk.x, tk.y, tk.w_right, tk.w_left)
@@ -172,8 +172,12 @@ def _smoothed(args, lengths: list[float]) -> None:
                 moved = float(np.max(np.abs(bundled.project(new.x, new.y)["e_y"])))
                 tr, keep, _, _, _, yaw, _ = _lap(args.scenario, path)
                 lat = 100 * np.max(np.abs(tr["lateral_error"][keep]))
+                rougher = "  (rougher than bundled)" if length < own else ""
+                if tr.status_time is not None:
+                    rougher += f"  (left at {tr.status_time:.1f} s)"
                 print(f"{track:10s} {length:3.0f} m {100 * moved:7.1f}cm {tr.status.value:9s} "
-                      f"{lat:6.2f}cm {np.degrees(np.max(np.abs(yaw))):6.2f}deg", flush=True)
+                      f"{lat:6.2f}cm {np.degrees(np.max(np.abs(yaw))):6.2f}deg{rougher}",
+                      flush=True)
 
 
 def main(argv: list[str] | None = None) -> None:
