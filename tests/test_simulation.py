@@ -525,3 +525,26 @@ def test_a_banked_road_reaches_the_plant_and_the_model_free_loop_holds_it():
     f3 = simulate(_scenario(noise=False, plant="3dof"))
     t3 = simulate(_scenario(noise=False, plant="3dof", road=RoadSpec(bank_deg=((0.0, 5.0),))))
     np.testing.assert_array_equal(f3["steer"], t3["steer"])
+
+
+def test_yaw_error_reference_is_the_path_following_3dof_and_the_run_starts_on_it():
+    """The yaw error's reference sideslip is the 3DoF model's with its CoG on the path
+    (reference_states_3dof, method "path"; metrics.py), and the car starts with that sideslip:
+    zero yaw and course error at t = 0 (noise-free, LVMS's curved start line)."""
+    from flatfree.models.bicycle3dof import Bicycle3DoFParams
+    from flatfree.simulation import prepare
+    from flatfree.tracks import reference_states_3dof
+
+    sc = _scenario(reference=ReferenceSpec(track="LVMS"), noise=False,
+                   timing=Timing(duration_s=0.05, log_dt_s=0.001))
+    prep = prepare(sc)
+    bic = Bicycle3DoFParams.from_vehicle(prep.vehicle)
+    kw = dict(cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz, lf=bic.lf, lr=bic.lr)
+    path = reference_states_3dof(prep.reference, method="path", **kw)
+    np.testing.assert_array_equal(prep.beta_ref, np.arctan2(path.vy, path.vx))
+    dyn = reference_states_3dof(prep.reference, **kw)
+    # the two models differ materially along a lap (measured 1.9 deg on LVMS)
+    assert np.max(np.abs(prep.beta_ref - np.arctan2(dyn.vy, dyn.vx))) > np.radians(0.5)
+    tr = simulate(sc)
+    assert abs(prep.beta_ref[0]) > 1e-3  # a material sideslip at the start
+    assert abs(tr["yaw_error"][0]) < 1e-12 and abs(tr["course_error"][0]) < 1e-12

@@ -8,7 +8,10 @@ Definitions (the same for every controller, so that comparisons are fair):
   (-pi, pi] (signal ``yaw_error``). The reference yaw is the recorded yaw for a recorded
   reference; for a track reference it is the path heading corrected by the reference sideslip
   angle of the 3DoF model along the path, beta_ref = atan(Vy_ref / Vx_ref): comparing with the
-  bare path heading would count the car's own sideslip as error. With ISO 8855 signs the course
+  bare path heading would count the car's own sideslip as error. "Along the path" is taken
+  exactly: the linear-tyre 3DoF model whose CoG follows the path at the reference speed
+  (:func:`flatfree.tracks.reference_states_3dof`, ``method="path"``; its yaw rate is
+  ``V kappa - beta_ref'``, not the path's ``V kappa``). With ISO 8855 signs the course
   angle (direction of the CoG velocity) is yaw + beta, so a car whose velocity follows the path
   has the yaw ``path heading - beta_ref`` (the issue's "plus" is the same correction written
   with the opposite sign convention for the sideslip angle).

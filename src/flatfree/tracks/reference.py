@@ -367,11 +367,13 @@ class LateralReference:
     Attributes
     ----------
     t, vx, ax : ndarray
-        Time [s], longitudinal speed [m/s] and acceleration [m/s^2] (copied from the reference).
+        Time [s], longitudinal speed [m/s] and acceleration [m/s^2] (copied from the reference;
+        method ``"path"``: ``V cos beta`` and its derivative).
     vy, vy_dot : ndarray
         Lateral speed of the CoG [m/s] and its derivative [m/s^2].
     r, r_dot : ndarray
-        Yaw rate [rad/s] and yaw acceleration [rad/s^2] (= the reference's r and r_dot).
+        Yaw rate [rad/s] and yaw acceleration [rad/s^2] (= the reference's r and r_dot;
+        method ``"path"``: ``V kappa - beta'`` and its derivative).
     delta : ndarray
         Front road-wheel steer angle that produces them in the model [rad].
     y1, y1_dot, y2, y2_dot, y2_ddot : ndarray
@@ -437,15 +439,39 @@ def reference_states_3dof(
         Yaw inertia [kg m^2].
     lf, lr : float
         CoG to front / rear axle [m].
-    method : {"dynamic", "steady"}
+    method : {"dynamic", "steady", "path"}
         ``"dynamic"`` (default): integrate the Vy dynamics above on the time grid (exponential
         integrator with mid-step coefficients, second order, stable at any step), starting from
         Vy_qs; the states then satisfy the model (with r prescribed) and y2_dot is exactly the
         model's -lf m Vx r - Cr L (Vy - lr r) / Vx (NOTES.md). ``"steady"``: Vy = Vy_qs and
         delta with Vy_dot = 0 in the lateral balance (steady-state cornering at each instant);
         vy_dot and y2_ddot are then numerical derivatives (numpy.gradient).
-        Below ``V_LOW`` = 0.5 m/s both use the quasi-steady values (the slip angles are singular
-        at Vx = 0).
+        ``"path"``: the model whose CoG follows the path exactly (below).
+        Below ``V_LOW`` = 0.5 m/s every method uses the quasi-steady values (the slip angles are
+        singular at Vx = 0).
+
+    The ``"path"`` method. ``"dynamic"`` prescribes the yaw rate ``r = Vx kappa``; then the
+    course of the CoG's velocity, ``chi = psi + beta``, turns at ``Vx kappa + beta'`` instead of
+    the path's ``V kappa``, and the model's CoG leaves the path wherever beta changes. With the
+    reference's speed taken as the CoG's speed along the path, ``V = ds/dt``, the model follows
+    the path exactly when ``r = V kappa - beta'``, ``Vx = V cos beta``, ``Vy = V sin beta``.
+    Eliminating Fyf between the two balances (``Vy' + Vx r = a sin beta + kappa V^2 cos beta``:
+    beta' cancels) leaves the internal dynamics of beta, second order:
+
+        Iz beta'' = Iz (V kappa)' - lf m (a sin beta + kappa V^2 cos beta)
+                    - L Cr (tan beta - lr kappa / cos beta + lr beta' / (V cos beta)),
+
+    a damped oscillator for V > 0 (small beta: stiffness L Cr / Iz, damping L Cr lr /
+    (Iz V), so ``zeta = lr sqrt(L Cr / Iz) / (2 V)``: 0.24 for the peugeot406 at 30 m/s; the
+    weakly damped yaw mode of a car whose CoG is held on its path). It is integrated on the
+    time grid (classical RK4 with the inputs interpolated linearly, sub-stepped so that the
+    step stays within RK4's stability at low speed), starting from its quasi-steady value
+    (beta' = beta'' = 0) at the first sample and after every stretch below ``V_LOW``. Then
+    ``vx = V cos beta`` (not the reference's V: they differ by 1 - cos beta, 6e-4 at 2 deg),
+    ``ax = d(V cos beta)/dt``, ``r = V kappa - beta'``, ``r_dot = (V kappa)' - beta''``,
+    ``vy_dot = a sin beta + V cos beta beta'``, and y2_dot, y2_ddot in the closed forms of the
+    ``"dynamic"`` method. This is "the 3DoF model along the path" of the yaw error's definition
+    (flatfree.metrics).
 
     Returns
     -------
@@ -457,9 +483,11 @@ def reference_states_3dof(
     iz = positive("iz", iz, "kg m^2")
     lf = positive("lf", lf, "m")
     lr = positive("lr", lr, "m")
-    if method not in ("dynamic", "steady"):
-        raise ValueError(f"method = {method!r}: must be 'dynamic' or 'steady'")
+    if method not in ("dynamic", "steady", "path"):
+        raise ValueError(f"method = {method!r}: must be 'dynamic', 'steady' or 'path'")
     big_l = lf + lr
+    if method == "path":
+        return _path_states(ref, cf, cr, m, iz, lf, lr)
     t = ref["t"].copy()
     vx = ref["vx"].copy()
     ax = ref["ax"].copy()
@@ -502,6 +530,138 @@ def reference_states_3dof(
     return LateralReference(t=t, vx=vx, ax=ax, vy=vy, vy_dot=vy_dot, r=r, r_dot=r_dot,
                             delta=delta, y1=vx.copy(), y1_dot=ax.copy(), y2=y2, y2_dot=y2_dot,
                             y2_ddot=y2_ddot, method=method)
+
+
+def _path_states(ref: Reference, cf: float, cr: float, m: float, iz: float, lf: float,
+                 lr: float) -> LateralReference:
+    """``reference_states_3dof(..., method="path")`` (see there)."""
+    big_l = lf + lr
+    t = ref["t"].copy()
+    v = ref["vx"].copy()  # the CoG's speed along the path, ds/dt
+    a = ref["ax"].copy()
+    kap = ref["kappa"].copy()
+    rk_dot = ref["r_dot"].copy()  # (V kappa)'
+    low = v < V_LOW
+    beta, beta_d, beta_dd = _integrate_beta_path(t, v, a, kap, rk_dot, m, iz, lf, lr, cr, low)
+    cb = np.cos(beta)
+    sb = np.sin(beta)
+    vx = v * cb
+    vy = v * sb
+    ax = a * cb - vy * beta_d
+    r = v * kap - beta_d
+    r_dot = rk_dot - beta_dd
+    vy_dot = a * sb + vx * beta_d
+    vxs = np.where(low, 1.0, vx)
+    fyr = -cr * (vy - lr * r) / vxs
+    fyf = m * (vy_dot + vx * r) - fyr
+    delta = (vy + lf * r) / vxs + fyf / cf
+    y2 = lf * m * vy - iz * r
+    y2_dot = lf * m * vy_dot - iz * r_dot
+    # d/dt of y2_dot = -lf m Vx r - Cr L (Vy - lr r) / Vx  (NOTES.md)
+    y2_ddot = -lf * m * (ax * r + vx * r_dot) - cr * big_l * (
+        (vy_dot - lr * r_dot) / vxs - (vy - lr * r) * ax / (vxs * vxs))
+    if low.any():
+        # quasi-steady below V_LOW (as the other methods): the kinematic yaw rate, numerical
+        # derivatives, the steer of the steady lateral balance
+        beta_qs = lr * kap + (iz * rk_dot - lf * m * v * v * kap) / (big_l * cr)
+        r = np.where(low, v * kap, r)
+        vy_dot = np.where(low, np.gradient(vy, t), vy_dot)
+        fyf_qs = (lr * m * (v * v * kap) + iz * rk_dot) / big_l
+        delta = np.where(low, beta_qs + lf * kap + fyf_qs / cf, delta)
+        y2 = lf * m * vy - iz * r
+        y2_dot = np.where(low, np.gradient(y2, t), y2_dot)
+        y2_ddot = np.where(low, np.gradient(y2_dot, t), y2_ddot)
+    return LateralReference(t=t, vx=vx, ax=ax, vy=vy, vy_dot=vy_dot, r=r, r_dot=r_dot,
+                            delta=delta, y1=vx.copy(), y1_dot=ax.copy(), y2=y2, y2_dot=y2_dot,
+                            y2_ddot=y2_ddot, method="path")
+
+
+@numba.njit(cache=True)
+def _beta_path_ddot(b, bd, v, a, kap, rkd, m, iz, lf, lcr, lr):
+    """beta'' of the path-following 3DoF model (reference_states_3dof, method "path")."""
+    cb = math.cos(b)
+    return rkd - (lf * m * (a * math.sin(b) + kap * v * v * cb)
+                  + lcr * (math.tan(b) - lr * kap / cb + lr * bd / (v * cb))) / iz
+
+
+@numba.njit(cache=True)
+def _beta_path_ddot_at(f, k, b, bd, v, a, kap, rkd, m, iz, lf, lcr, lr):
+    """:func:`_beta_path_ddot` with the inputs interpolated linearly at the fraction ``f`` of
+    the grid step from sample ``k`` to ``k + 1``."""
+    return _beta_path_ddot(b, bd, v[k] + f * (v[k + 1] - v[k]), a[k] + f * (a[k + 1] - a[k]),
+                           kap[k] + f * (kap[k + 1] - kap[k]),
+                           rkd[k] + f * (rkd[k + 1] - rkd[k]), m, iz, lf, lcr, lr)
+
+
+@numba.njit(cache=True)
+def _beta_path_qs(v, a, kap, rkd, m, iz, lf, lcr, lr):
+    """The quasi-steady beta (beta' = beta'' = 0) by Newton's method from the small-angle one."""
+    b = lr * kap + (iz * rkd - lf * m * v * v * kap) / lcr
+    for _ in range(8):
+        f = _beta_path_ddot(b, 0.0, v, a, kap, rkd, m, iz, lf, lcr, lr)
+        db = 1e-7
+        df = (_beta_path_ddot(b + db, 0.0, v, a, kap, rkd, m, iz, lf, lcr, lr) - f) / db
+        if df == 0.0:
+            break
+        step = f / df
+        b -= step
+        if abs(step) < 1e-15:
+            break
+    return b
+
+
+@numba.njit(cache=True)
+def _integrate_beta_path(t, v, a, kap, rkd, m, iz, lf, lr, cr, low):
+    """RK4 of the path-following beta dynamics on the grid ``t`` (see reference_states_3dof):
+    inputs interpolated linearly within a step; sub-steps keep h (damping + sqrt(stiffness))
+    <= 0.5, inside RK4's stability region. Returns beta, beta', beta'' at the samples."""
+    n = t.shape[0]
+    lcr = (lf + lr) * cr
+    beta = np.empty(n)
+    bdot = np.empty(n)
+    bdd = np.empty(n)
+    b = 0.0
+    bd = 0.0
+    restart = True
+    w_stiff = math.sqrt(lcr / iz)
+    for k in range(n):
+        if low[k]:
+            beta[k] = lr * kap[k] + (iz * rkd[k] - lf * m * v[k] * v[k] * kap[k]) / lcr
+            bdot[k] = 0.0
+            bdd[k] = 0.0
+            restart = True
+            continue
+        if restart:
+            b = _beta_path_qs(v[k], a[k], kap[k], rkd[k], m, iz, lf, lcr, lr)
+            bd = 0.0
+            restart = False
+        beta[k] = b
+        bdot[k] = bd
+        bdd[k] = _beta_path_ddot(b, bd, v[k], a[k], kap[k], rkd[k], m, iz, lf, lcr, lr)
+        if k == n - 1 or low[k + 1]:
+            continue
+        h = t[k + 1] - t[k]
+        vmin = min(v[k], v[k + 1])
+        rate = lcr * lr / (iz * vmin) + w_stiff
+        nsub = max(1, int(math.ceil(h * rate / 0.5)))
+        hs = h / nsub
+        for j in range(nsub):
+            f0 = j / nsub
+            fm = (j + 0.5) / nsub
+            f1 = (j + 1.0) / nsub
+            d1 = _beta_path_ddot_at(f0, k, b, bd, v, a, kap, rkd, m, iz, lf, lcr, lr)
+            b2 = b + 0.5 * hs * bd
+            bd2 = bd + 0.5 * hs * d1
+            d2 = _beta_path_ddot_at(fm, k, b2, bd2, v, a, kap, rkd, m, iz, lf, lcr, lr)
+            b3 = b + 0.5 * hs * bd2
+            bd3 = bd + 0.5 * hs * d2
+            d3 = _beta_path_ddot_at(fm, k, b3, bd3, v, a, kap, rkd, m, iz, lf, lcr, lr)
+            b4 = b + hs * bd3
+            bd4 = bd + hs * d3
+            d4 = _beta_path_ddot_at(f1, k, b4, bd4, v, a, kap, rkd, m, iz, lf, lcr, lr)
+            b += hs / 6.0 * (bd + 2.0 * bd2 + 2.0 * bd3 + bd4)
+            bd += hs / 6.0 * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
+    return beta, bdot, bdd
 
 
 @numba.njit(cache=True)
