@@ -646,9 +646,9 @@ def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepare
     recorded = sc.reference.recording is not None
     # the yaw error's reference sideslip (metrics.py) and the start's: the 3DoF model with its
     # CoG on the path ("path"). Planning the flat-output designs' y2 from it instead made them
-    # leave Spa and the mismatched one Norisring (noise-free, seed 0: its y2 carries the model's
-    # weakly damped yaw mode, which the 10DoF car then rings with; benchmarks/README.md "Yaw
-    # error: what the targets allow together")
+    # leave Spa, the mismatched one Norisring too (noise-free, seed 0: its y2 carries the model's
+    # weakly damped yaw mode, which the 10DoF car then rings with; benchmarks/README.md "The
+    # yaw error's reference: the 3DoF model on the path")
     beta = np.zeros_like(ref["vx"])
     if not recorded:
         lat_p = reference_states_3dof(ref, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
