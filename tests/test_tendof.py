@@ -215,6 +215,10 @@ def test_solve_ivp_and_compiled_rk4_agree(models):
     # the hold switches inside RK45 steps; max_step = dt bounds that error (about 1e-5 rel.)
     np.testing.assert_allclose(sol2.y[:, -1], xs2[-1], rtol=0.0,
                                atol=1e-4 * np.maximum(np.abs(xs2[-1]), 1.0).max())
+    # a callable giving the 6 flat-road entries is completed as a constant input is
+    fun6 = m.ivp_rhs(lambda t: seq[min(int(t / 1e-3), 499)][:6])
+    np.testing.assert_array_equal(fun6(0.25, x0), fun(0.25, x0))
+    np.testing.assert_array_equal(m.ivp_rhs(u[:6])(0.0, x0), m.ivp_rhs(u)(0.0, x0))
 
 
 def test_step_simulate_and_kernel_are_one_implementation(models):

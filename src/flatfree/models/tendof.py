@@ -961,10 +961,16 @@ def _as_state(x) -> np.ndarray:
     return np.ascontiguousarray(a)
 
 
-def _check_inputs(u, shape_what: str) -> np.ndarray:
-    a = np.ascontiguousarray(np.asarray(u, dtype=np.float64))
-    if a.ndim >= 1 and a.shape[-1] in (NU - 2, NU - 1):  # without the bank or its heading
+def _complete_inputs(a: np.ndarray) -> np.ndarray:
+    """Inputs of 6 (a flat road) or 7 entries (a bank across the body) completed with zeros to
+    the :class:`TenDoFInput` layout; any other length is returned as it is."""
+    if a.ndim >= 1 and a.shape[-1] in (NU - 2, NU - 1):
         a = np.concatenate((a, np.zeros((*a.shape[:-1], NU - a.shape[-1]))), axis=-1)
+    return a
+
+
+def _check_inputs(u, shape_what: str) -> np.ndarray:
+    a = _complete_inputs(np.ascontiguousarray(np.asarray(u, dtype=np.float64)))
     if a.shape[-1:] != (NU,):
         raise ValueError(
             f"{shape_what} has shape {a.shape}: expected last axis {NU} = "
@@ -1167,9 +1173,8 @@ class TenDoF:
         if callable(u):
             def fun(t: float, x: np.ndarray) -> np.ndarray:
                 dx = np.empty(NX)
-                ut = np.ascontiguousarray(u(t), dtype=np.float64)
-                if ut.shape[0] < NU:  # without the bank entries: the kernel reads them
-                    ut = np.concatenate((ut, np.zeros(NU - ut.shape[0])))
+                # without the bank entries: the kernel reads them
+                ut = _complete_inputs(np.ascontiguousarray(u(t), dtype=np.float64))
                 rhs_kernel(np.ascontiguousarray(x, dtype=np.float64), ut, p, tpf, tpr, dx, diag)
                 return dx
         else:
