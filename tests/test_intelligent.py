@@ -683,3 +683,107 @@ def test_alpha_sweep_records_the_stable_range():
     assert _alpha_run(1.0, "simple", 10) == math.inf
     assert _alpha_run(2.0, "simple", 10) == math.inf
     assert _alpha_run(3.0, "simple", 10) < 0.01
+
+
+# ------------------------------------------------------------------------------------------
+# outside estimates: intelligent_step_external / intelligent_override
+# ------------------------------------------------------------------------------------------
+def _ipd_params(ki=0.0):
+    """An iPD (window 60, moments on) with rate and saturation limits that bind now and then."""
+    return IntelligentParams(nu=2, alpha=-50.0, dt=1e-3, window=60, kp=25.0, kd=10.0, ki=ki,
+                             derivative="model", derivative_window=60, u_min=-0.05,
+                             u_max=0.05, rate_max=5.0).to_array()
+
+
+def _signal(k, rng):
+    return 0.02 * math.sin(0.004 * k) + 1e-3 * rng.standard_normal()
+
+
+@pytest.mark.parametrize("ki", [0.0, 3.0])
+def test_outside_estimates_equal_to_the_windows_give_the_same_steps(ki):
+    """Twin controllers on one noisy signal: A steps on its own estimates; B is given, through
+    intelligent_step_external, the estimates A just formed (F, y, y'). B's outputs and state
+    (rings, integral, flags) equal A's bit for bit, except the moments, which B leaves stale
+    (M_VALID cleared): it skips exactly the window's own estimate. Then B steps on its own
+    window again and follows A to round-off (its moments recomputed exactly: a warm fallback).
+    Before the window is full, external is the plain step."""
+    from flatfree.controllers.intelligent import IST, intelligent_step_external
+
+    p = _ipd_params(ki)
+    sa, sb = make_state(p), make_state(p)
+    rng = np.random.default_rng(3)
+    L = int(p[11])  # IPAR.L
+    skip = {int(IST.M_VALID), int(IST.M_SINCE), *range(int(IST.MY), int(IST.MU) + 5)}
+    keep = np.array([i for i in range(sa.size) if i not in skip])
+    n_limited = 0
+    for k in range(1500):
+        y, yr, yrd, yrdd = _signal(k, rng), 0.01, 0.0, 0.0
+        ua = intelligent_step(p, sa, y, yr, yrd, yrdd)
+        if k < 1000:
+            # A's estimates of this sample: F, y'; its e was formed from y itself
+            ub = intelligent_step_external(p, sb, y, yr, yrd, yrdd, sa[IST.F_HAT], y,
+                                           sa[IST.YDOT])
+            assert ub == ua
+            np.testing.assert_array_equal(sb[keep], sa[keep])
+            if k >= L:  # full before this sample: the external form itself ran
+                assert sb[IST.M_VALID] == 0.0
+        else:
+            ub = intelligent_step(p, sb, y, yr, yrd, yrdd)
+            assert abs(ub - ua) <= 1e-12 * 0.05
+        n_limited += sa[IST.SAT] != 0.0 or sa[IST.RATE] != 0.0
+    assert 50 < n_limited < 1400  # the limits took part, not all the time
+
+
+def test_outside_estimates_drive_the_law_and_fall_back_when_not_finite():
+    """The law at outside estimates: u = -(F - y_ref'' + kp e + kd e') / alpha with
+    e = y_hat - y_ref, e' = y_dot_hat - y_ref' (inside the limits). A NaN estimate or a window
+    that is not full yet gives the plain step on the measurement instead."""
+    from flatfree.controllers.intelligent import IST, intelligent_step_external
+
+    p = IntelligentParams(nu=2, alpha=-50.0, dt=1e-3, window=30, kp=4.0, kd=3.0).to_array()
+    s, t = make_state(p), make_state(p)
+    for k in range(29):  # not full: the plain step, whatever the estimates
+        assert intelligent_step_external(p, s, 1e-3 * k, 0.0, 0.0, 0.0, 7.0, 1.0, 1.0) == \
+            intelligent_step(p, t, 1e-3 * k, 0.0, 0.0, 0.0)
+    intelligent_step(p, s, 0.03, 0.0, 0.0, 0.0)
+    intelligent_step(p, t, 0.03, 0.0, 0.0, 0.0)
+    f, yh, ydh, yr, yrd, yrdd = 0.4, 0.011, -0.02, 0.01, 0.003, 0.2
+    u = intelligent_step_external(p, s, 0.031, yr, yrd, yrdd, f, yh, ydh)
+    expected = -(f - yrdd + 4.0 * (yh - yr) + 3.0 * (ydh - yrd)) / -50.0
+    assert u == pytest.approx(expected, rel=1e-15)
+    assert s[IST.F_HAT] == f and s[IST.YDOT] == ydh and s[IST.Y_LAST] == 0.031
+    u_plain = intelligent_step(p, t, 0.031, yr, yrd, yrdd)
+    assert u_plain != u
+    # a NaN estimate: the plain step on the measurement, state and all
+    s3, t3 = s.copy(), s.copy()
+    assert intelligent_step_external(p, s3, 0.032, yr, yrd, yrdd, math.nan, yh, ydh) == \
+        intelligent_step(p, t3, 0.032, yr, yrd, yrdd)
+    np.testing.assert_array_equal(s3, t3)
+
+
+def test_override_replaces_the_steps_output_against_the_previous_one():
+    """intelligent_override after a step: the law at the outside estimates, limited against
+    the output applied before that step (the rate limit shows it), the ring and U hold it; the
+    integral is left as the step made it. Given the window's own estimates it changes nothing."""
+    from flatfree.controllers.intelligent import IST, intelligent_override
+
+    p = _ipd_params(ki=2.0)
+    s = make_state(p)
+    rng = np.random.default_rng(8)
+    for k in range(200):
+        intelligent_step(p, s, _signal(k, rng), 0.01, 0.0, 0.0)
+    before = s.copy()
+    u_prev = s[IST.U]
+    u = intelligent_step(p, s, 0.02, 0.01, 0.0, 0.0)
+    same = s.copy()
+    assert intelligent_override(p, same, 0.02, 0.01, 0.0, 0.0, s[IST.F_HAT], 0.02,
+                                s[IST.YDOT]) == u
+    np.testing.assert_array_equal(same, s)
+    # a large F: the law asks for a big step, the rate limit (5 rad/s, 1 ms) holds it to
+    # u_prev + 0.005 (u_prev: before the step, not the step's own output)
+    big = s.copy()
+    v = intelligent_override(p, big, 0.02, 0.01, 0.0, 0.0, -1e3, 0.02, 0.0)
+    assert v == max(u_prev - 5.0 * 1e-3, -0.05) and v != u
+    assert big[IST.U] == v and (big[IST.RATE] == -1.0 or big[IST.SAT] == -1.0)
+    assert big[IST.INTEGRAL] == s[IST.INTEGRAL]
+    assert before[IST.K] == s[IST.K]

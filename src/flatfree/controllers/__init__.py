@@ -14,8 +14,10 @@ from flatfree.controllers.intelligent import (
     IntelligentParams,
     IntelligentStatus,
     error_dynamics_gains,
+    intelligent_override,
     intelligent_reset,
     intelligent_step,
+    intelligent_step_external,
     make_state,
 )
 
@@ -28,7 +30,9 @@ __all__ = [
     "IntelligentParams",
     "IntelligentStatus",
     "error_dynamics_gains",
+    "intelligent_override",
     "intelligent_reset",
     "intelligent_step",
+    "intelligent_step_external",
     "make_state",
 ]

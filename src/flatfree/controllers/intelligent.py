@@ -102,6 +102,12 @@ Start, limits, bad samples
   by ``dt (F_hat + alpha u_{k-1})``); exact on the ultra-local model with constant F (with the
   ``"model"`` derivative for nu = 2). Before the first finite
   sample nothing is stored, and before the window is full the last finite value is repeated.
+* Outside estimates (:func:`intelligent_step_external`): a loop with a better source of F, y
+  and y' (the natural-output controller's inertial estimator) runs the same law, limits and
+  bookkeeping on them; the window keeps receiving y and the applied u but forms no estimate
+  of its own, and takes over warm at the next plain :func:`intelligent_step` (a fallback on a
+  bad sample). :func:`intelligent_override` replaces the output of a step just taken (the
+  sample at which the outside estimator starts from the window's estimate).
 
 References
 ----------
@@ -140,6 +146,8 @@ __all__ = [
     "ErrorDynamicsGains",
     "error_dynamics_gains",
     "intelligent_step",
+    "intelligent_step_external",
+    "intelligent_override",
     "intelligent_reset",
     "intelligent_set_applied",
     "make_state",
@@ -373,6 +381,40 @@ def _exact_moments(p, s, head, L):
     s[_MSINCE] = 0.0
 
 
+@numba.njit(**_JIT_STEP)
+def _law(p, s, f_hat, e, e_dot, y_ref_dot, y_ref_ddot, u_prev, de_int):
+    """The control law at the estimates ``f_hat``, ``e``, ``e_dot`` (``e_dot`` read for nu = 2
+    only), with the limits and conditional integration; the integral moves by ``de_int``.
+    Writes ``E``, ``E_DOT`` (nu = 2), ``INTEGRAL``, ``SAT``, ``RATE``, ``NONFINITE``; returns
+    the limited output (the caller stores it)."""
+    alpha = p[_ALPHA]
+    s[_E] = e
+    if int(p[_NU]) == 1:
+        v0 = f_hat - y_ref_dot + p[_KP] * e  # paper eq. (ip), NOTES.md sign
+    else:
+        s[_ED] = e_dot
+        v0 = f_hat - y_ref_ddot + p[_KP] * e + p[_KD] * e_dot  # paper eq. (iPD_c), NOTES.md
+    ki = p[_KI]
+    i_old = s[_INT]
+    i_new = i_old + de_int  # rectangle rule, includes e_k
+    u_cmd = -(v0 + ki * i_new) / alpha  # paper eqs. (iPI_c), (iPID_c)
+    u_lim, sat, rl = _limit(p, u_cmd, u_prev)
+    if ki != 0.0 and int(p[_AW]) == 0 and (sat != 0.0 or rl != 0.0):
+        # conditional integration [AM08 10.4]: drop the increment if it pushes u further
+        # into the active limit; du/dI = -ki/alpha
+        push = -ki / alpha * e
+        lim_dir = sat if sat != 0.0 else rl
+        if push * lim_dir > 0.0:
+            i_new = i_old
+            u_cmd = -(v0 + ki * i_new) / alpha
+            u_lim, sat, rl = _limit(p, u_cmd, u_prev)
+    s[_INT] = i_new
+    s[_SAT] = sat
+    s[_RL] = rl
+    s[_NF] = 0.0
+    return u_lim
+
+
 @numba.njit(
     "float64(float64[::1], float64[::1], float64, float64, float64, float64)",
     fastmath=False,
@@ -537,32 +579,8 @@ def intelligent_step(
         s[_FH] = ay + alpha * au
     if full and y_ok and ref_ok:
         e = y - y_ref
-        s[_E] = e
-        if nu == 1:
-            v0 = s[_FH] - y_ref_dot + p[_KP] * e  # paper eq. (ip), NOTES.md sign
-        else:
-            e_dot = s[_YD] - y_ref_dot
-            s[_ED] = e_dot
-            v0 = s[_FH] - y_ref_ddot + p[_KP] * e + p[_KD] * e_dot  # paper eq. (iPD_c), NOTES.md
-        ki = p[_KI]
-        i_old = s[_INT]
-        i_new = i_old + e * dt  # rectangle rule, includes e_k
-        u_cmd = -(v0 + ki * i_new) / alpha  # paper eqs. (iPI_c), (iPID_c)
-        u_lim, sat, rl = _limit(p, u_cmd, u_prev)
-        if ki != 0.0 and int(p[_AW]) == 0 and (sat != 0.0 or rl != 0.0):
-            # conditional integration [AM08 10.4]: drop the increment if it pushes u further
-            # into the active limit; du/dI = -ki/alpha
-            push = -ki / alpha * e
-            lim_dir = sat if sat != 0.0 else rl
-            if push * lim_dir > 0.0:
-                i_new = i_old
-                u_cmd = -(v0 + ki * i_new) / alpha
-                u_lim, sat, rl = _limit(p, u_cmd, u_prev)
-        s[_INT] = i_new
-        s[_SAT] = sat
-        s[_RL] = rl
-        s[_NF] = 0.0
-        u_out = u_lim
+        e_dot = s[_YD] - y_ref_dot if nu == 2 else 0.0
+        u_out = _law(p, s, s[_FH], e, e_dot, y_ref_dot, y_ref_ddot, u_prev, e * dt)
     elif not (y_ok and ref_ok):
         s[_NNF] += 1.0
         s[_NF] = 1.0
@@ -574,6 +592,82 @@ def intelligent_step(
     s[ub0 + head + L] = u_out
     return u_out
 
+
+_SIG_EXT = ("float64(float64[::1], float64[::1], float64, float64, float64, float64, float64, "
+            "float64, float64)")
+
+
+@numba.njit(_SIG_EXT, fastmath=False, **_JIT_STEP)
+def intelligent_step_external(p, s, y, y_ref, y_ref_dot, y_ref_ddot, f_hat, y_hat, y_dot_hat):
+    """One sample of an intelligent controller whose estimates come from outside its window.
+
+    For a loop that has a better estimate of F, y and y' than the window's: flatfree's
+    natural-output controller with ``estimator_lat = "imu"`` takes them from the measured
+    acceleration (:mod:`flatfree.controllers.vehicle`). The law, its limits and the state's
+    bookkeeping are those of :func:`intelligent_step`, with ``e = y_hat - y_ref`` and
+    ``e' = y_dot_hat - y_ref_dot``; ``f_hat`` and ``y_dot_hat`` are stored as the step's
+    ``F_HAT`` and ``YDOT``. The measurement ``y`` and the output enter the window as there, so
+    that :func:`intelligent_step` can take over at the next sample (a fault fallback) with a
+    full, current window; what is saved is the window's own estimate: its sums are not formed,
+    and its sliding moments are marked stale (``M_VALID`` cleared), so the next
+    :func:`intelligent_step` recomputes them exactly.
+
+    With a window that is not full yet, or any argument not finite, this is
+    :func:`intelligent_step` (``y``, the reference): the window's estimate and its policy for
+    missing samples. Returns the applied output ``u_k``, as :func:`intelligent_step`.
+    """
+    L = int(p[_L])
+    if (int(s[_K]) < L or not (math.isfinite(y) and math.isfinite(y_ref)
+                               and math.isfinite(y_ref_dot) and math.isfinite(y_ref_ddot)
+                               and math.isfinite(f_hat) and math.isfinite(y_hat)
+                               and math.isfinite(y_dot_hat))):
+        return intelligent_step(p, s, y, y_ref, y_ref_dot, y_ref_ddot)
+    u_prev = s[_U]
+    head = int(s[_HEAD]) - 1
+    if head < 0:
+        head += L
+    s[_HEAD] = head
+    yb0 = _HS
+    s[yb0 + head] = y
+    s[yb0 + head + L] = y
+    s[_YL] = y
+    s[_MVALID] = 0.0
+    e = y_hat - y_ref
+    u = _law(p, s, f_hat, e, y_dot_hat - y_ref_dot, y_ref_dot, y_ref_ddot, u_prev, e * p[_DT])
+    s[_FH] = f_hat
+    s[_YD] = y_dot_hat
+    s[_U] = u
+    ub0 = _HS + 2 * L
+    s[ub0 + head] = u
+    s[ub0 + head + L] = u
+    return u
+
+
+@numba.njit(_SIG_EXT, fastmath=False, **_JIT_STEP)
+def intelligent_override(p, s, y, y_ref, y_ref_dot, y_ref_ddot, f_hat, y_hat, y_dot_hat):
+    """Replace the output of the :func:`intelligent_step` just taken by the law at outside
+    estimates (:func:`intelligent_step_external`'s arguments; ``y`` is not used: the step has
+    already entered it). The limits act against the output applied before that step; the
+    integral keeps the value the step gave it. For the sample at which an outside estimator
+    starts: the window's estimate of this sample is still at hand (``YDOT``) to start it with.
+    A window that is not full or an argument that is not finite leaves the step's output.
+    Returns the applied output.
+    """
+    L = int(p[_L])
+    head = int(s[_HEAD])
+    ub0 = _HS + 2 * L
+    if (int(s[_K]) < L or not (math.isfinite(y_ref) and math.isfinite(y_ref_dot)
+                               and math.isfinite(y_ref_ddot) and math.isfinite(f_hat)
+                               and math.isfinite(y_hat) and math.isfinite(y_dot_hat))):
+        return s[ub0 + head]
+    u_prev = s[ub0 + head + 1]  # the output applied over the period before the step
+    e = y_hat - y_ref
+    u = _law(p, s, f_hat, e, y_dot_hat - y_ref_dot, y_ref_dot, y_ref_ddot, u_prev, 0.0)
+    s[_FH] = f_hat
+    s[_U] = u
+    s[ub0 + head] = u
+    s[ub0 + head + L] = u
+    return u
 
 # --------------------------------------------------------------------------------------------
 # Weights

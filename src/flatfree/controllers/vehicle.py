@@ -97,11 +97,12 @@ from flatfree.controllers.intelligent import (
     IPAR,
     IST,
     IntelligentParams,
+    intelligent_override,
     intelligent_set_applied,
     intelligent_step,
+    intelligent_step_external,
     make_state,
 )
-from flatfree.controllers.intelligent import _limit as _ilimit
 from flatfree.estimators import denoising_weights, fir_new, fir_reset, fir_update
 from flatfree.models.bicycle3dof import Bicycle3DoFParams
 
@@ -817,11 +818,8 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
 _IMU_ON, _IMU_PHI, _IMU_L1, _IMU_L2 = 18, 19, 20, 21
 _IMU_A, _IMU_U, _IMU_E, _IMU_ED, _IMU_STARTED = 22, 23, 24, 25, 26
 _IMU_L3, _IMU_B = 27, 28  # bias gain, bias estimate (kept across restarts: the bias persists)
-_KP, _KD, _ALPHA, _DT_I, _L_I = int(IPAR.KP), int(IPAR.KD), int(IPAR.ALPHA), int(IPAR.DT), \
-    int(IPAR.L)
+_ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
 _K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
-_FH_I, _E_I, _ED_I, _SAT_I, _RL_I = (int(IST.F_HAT), int(IST.E), int(IST.E_DOT),
-                                     int(IST.SAT), int(IST.RATE))
 
 
 @njit(cache=True)
@@ -839,52 +837,49 @@ def wants_ey_ddot(kind, coef) -> bool:
 
 
 @njit(cache=True)
-def _imu_lateral(p, s, coef, y, a, yr, yrd, yrdd, u_prev, u_alg):
+def _imu_lateral(p, s, coef, y_alg, y, a, yr, yrd, yrdd, u_prev):
     """The iPD's steer with F, e_y and e_y' from the measured e_y'' (``estimator_lat = "imu"``).
 
     ``y`` is the measured e_y, ``a`` the measured e_y'', ``u_prev`` the steer applied over
-    the last period, ``u_alg`` the algebraic controller's output of this step (returned, and
-    the observer restarted, where an input is not finite or the window is not full yet).
+    the last period, ``y_alg`` the sample for the algebraic estimator's window (``y``, denoised
+    when the settings say so). The observer's estimates drive the iPD's law
+    (:func:`~flatfree.controllers.intelligent.intelligent_step_external`); the algebraic
+    estimator only keeps its window current. Where an input is not finite or the window is not
+    full yet, the algebraic controller's step is returned and the observer restarts; at the
+    sample it restarts on, it starts from the algebraic estimate of e_y'.
     """
     ok = (math.isfinite(a) and math.isfinite(y) and math.isfinite(u_prev)
           and math.isfinite(yr) and math.isfinite(yrd) and math.isfinite(yrdd))
-    if not ok or s[_K_I] < p[_L_I]:
-        coef[_IMU_STARTED] = 0.0
-        return u_alg
-    if coef[_IMU_STARTED] == 0.0:
+    if not ok or coef[_IMU_STARTED] == 0.0 or s[_K_I] < p[_L_I]:
+        u_alg = intelligent_step(p, s, y_alg, yr, yrd, yrdd)
+        if not ok or s[_K_I] < p[_L_I]:
+            coef[_IMU_STARTED] = 0.0
+            return u_alg
         coef[_IMU_A] = a
         coef[_IMU_U] = u_prev
         coef[_IMU_E] = y
         coef[_IMU_ED] = s[_YD_I]  # the algebraic estimate of e_y' (its window is full)
         coef[_IMU_STARTED] = 1.0
-    else:
-        phi = coef[_IMU_PHI]
-        coef[_IMU_A] = phi * coef[_IMU_A] + (1.0 - phi) * a
-        coef[_IMU_U] = phi * coef[_IMU_U] + (1.0 - phi) * u_prev
-        dt = p[_DT_I]
-        # a is the mean e_y'' over the last period (less the bias estimate): predict, then
-        # correct with e_y
-        acc = a - coef[_IMU_B]
-        coef[_IMU_E] += dt * coef[_IMU_ED] + 0.5 * dt * dt * acc
-        coef[_IMU_ED] += dt * acc
-        inn = y - coef[_IMU_E]
-        coef[_IMU_E] += coef[_IMU_L1] * inn
-        coef[_IMU_ED] += coef[_IMU_L2] * inn
-        coef[_IMU_B] -= coef[_IMU_L3] * inn
-    alpha = p[_ALPHA]
+        f_hat = coef[_IMU_A] - coef[_IMU_B] - p[_ALPHA] * coef[_IMU_U]
+        return intelligent_override(p, s, y_alg, yr, yrd, yrdd, f_hat, coef[_IMU_E],
+                                    coef[_IMU_ED])
+    phi = coef[_IMU_PHI]
+    coef[_IMU_A] = phi * coef[_IMU_A] + (1.0 - phi) * a
+    coef[_IMU_U] = phi * coef[_IMU_U] + (1.0 - phi) * u_prev
+    dt = p[_DT_I]
+    # a is the mean e_y'' over the last period (less the bias estimate): predict, then
+    # correct with e_y
+    acc = a - coef[_IMU_B]
+    coef[_IMU_E] += dt * coef[_IMU_ED] + 0.5 * dt * dt * acc
+    coef[_IMU_ED] += dt * acc
+    inn = y - coef[_IMU_E]
+    coef[_IMU_E] += coef[_IMU_L1] * inn
+    coef[_IMU_ED] += coef[_IMU_L2] * inn
+    coef[_IMU_B] -= coef[_IMU_L3] * inn
     # the ultra-local model at the filtered instant, the bias removed
-    f_hat = coef[_IMU_A] - coef[_IMU_B] - alpha * coef[_IMU_U]
-    e = coef[_IMU_E] - yr
-    e_dot = coef[_IMU_ED] - yrd
-    s[_FH_I] = f_hat
-    s[_E_I] = e
-    s[_ED_I] = e_dot
-    u_cmd = -(f_hat - yrdd + p[_KP] * e + p[_KD] * e_dot) / alpha  # paper eq. (iPD_c)
-    u, sat, rl = _ilimit(p, u_cmd, u_prev)
-    s[_SAT_I] = sat
-    s[_RL_I] = rl
-    intelligent_set_applied(p, s, u)  # the algebraic estimator's window records it
-    return u
+    f_hat = coef[_IMU_A] - coef[_IMU_B] - p[_ALPHA] * coef[_IMU_U]
+    return intelligent_step_external(p, s, y_alg, yr, yrd, yrdd, f_hat, coef[_IMU_E],
+                                     coef[_IMU_ED])
 
 
 @njit(cache=True)
@@ -936,10 +931,10 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         p_lat[IPAR.KP] = wn * wn
         p_lat[IPAR.KD] = 2.0 * coef[14] * wn
     u_prev = s_lat[_U_I]  # the steer applied over the last period (feed_applied) or commanded
-    delta = intelligent_step(p_lat, s_lat, y, yr, yrd, yrdd)
     if _imu_on(kind, coef):
-        delta = _imu_lateral(p_lat, s_lat, coef, meas[6], meas[10], yr, yrd, yrdd, u_prev,
-                             delta)
+        delta = _imu_lateral(p_lat, s_lat, coef, y, meas[6], meas[10], yr, yrd, yrdd, u_prev)
+    else:
+        delta = intelligent_step(p_lat, s_lat, y, yr, yrd, yrdd)
     if coef[4] != 0.0:
         # parameter-free yaw damper (MfcNaturalSettings.yaw_damping): r - Vx kappa(s)
         dr = meas[5] - meas[3] * cref[8]
