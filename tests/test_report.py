@@ -305,3 +305,16 @@ def test_report_renders_in_headless_chromium(report):
         assert complete and w > 0 and h > 0  # a broken image has naturalWidth 0
     assert rows == [r.label for r in results]
     assert title == "flatfree: the paper reproduced"
+
+
+def test_settings_table_names_the_speed_profiles_optional_limits():
+    """The lateral-jerk limit and the drive limit appear in the settings table when set, and
+    the paper's profile (neither) reads as before."""
+    from flatfree.report import _settings_table
+    from flatfree.scenario import ReferenceSpec
+
+    plain = _settings_table(Scenario())
+    assert "lateral jerk" not in plain and "drive limit" not in plain
+    both = _settings_table(Scenario(reference=ReferenceSpec(j_lat_max=15.0, drive_limit=True)))
+    assert "lateral jerk &lt;= 15 m/s^3" in both  # HTML-escaped
+    assert "drive limit" in both

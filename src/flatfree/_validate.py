@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["finite", "positive", "nonnegative", "in_range"]
+__all__ = ["finite", "positive", "positive_or_inf", "nonnegative", "in_range"]
 
 
 def _fmt(name: str, value, unit: str) -> str:
@@ -28,6 +28,18 @@ def positive(name: str, value, unit: str = "") -> float:
     v = finite(name, value, unit)
     if v <= 0.0:
         raise ValueError(f"{_fmt(name, value, unit)}: must be > 0")
+    return v
+
+
+def positive_or_inf(name: str, value, unit: str = "") -> float:
+    """A value > 0, ``inf`` allowed (an absent limit); NaN, <= 0 or not a number raise."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{_fmt(name, value, unit)}: expected a real number > 0 (inf: no "
+                         "limit)") from None
+    if not v > 0.0:  # also NaN
+        raise ValueError(f"{_fmt(name, value, unit)}: must be > 0 (inf: no limit)")
     return v
 
 

@@ -280,7 +280,10 @@ def _settings_table(sc: Scenario) -> str:
         ("reference", f"track {ref.track} ({ref.line})" if ref.track is not None
          else f"recording {ref.recording}"),
         ("speed profile", (f"a_lat <= {ref.a_lat_max:g} m/s^2, a_drive <= {ref.a_drive_max:g} "
-                           f"m/s^2, a_brake <= {ref.a_brake_max:g} m/s^2, v <= {ref.v_max:g} m/s")),
+                           f"m/s^2, a_brake <= {ref.a_brake_max:g} m/s^2, v <= {ref.v_max:g} m/s"
+                           + (f", lateral jerk <= {ref.j_lat_max:g} m/s^3"
+                              if math.isfinite(ref.j_lat_max) else "")
+                           + (", drive limit" if ref.drive_limit else ""))),
         ("timing", (f"plant {sc.timing.plant_dt_s:g} s, control {sc.timing.control_dt_s:g} s, "
                     f"log {sc.timing.log_dt_s:g} s, duration {duration}")),
         ("noise", "on" if sc.noise else "off"), ("seed", sc.seed),

@@ -27,6 +27,7 @@ TOML layout (every key optional except where a section says so; units in the key
     a_brake_max = 6.0
     v_max = 50.0
     mu = 1.0
+    j_lat_max = inf                 # lateral jerk v^3 |dkappa/ds| [m/s^3]; inf = no limit
     drive_limit = false             # true: also within the car's drive limit (power, torque)
 
     [controller_settings]           # the chosen controller's own settings (checked by it)
@@ -79,7 +80,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from flatfree._validate import finite, nonnegative, positive
+from flatfree._validate import finite, nonnegative, positive, positive_or_inf
 from flatfree.sensors import SensorChannel, SensorSuite
 
 __all__ = [
@@ -124,6 +125,9 @@ class ReferenceSpec:
     a_brake_max: float = 6.0  # [m/s^2]
     v_max: float = 50.0  # [m/s]
     mu: float = 1.0  # [-] friction the speed profile plans with
+    #: lateral-jerk limit of the speed profile, v^3 |dkappa/ds| <= j_lat_max [m/s^3]
+    #: (tracks.SpeedLimits.j_lat_max); inf (default, TOML ``inf``): none, the paper's profile
+    j_lat_max: float = math.inf
     #: plan the speed profile within the vehicle's drive limit too (torque, power, drag, rolling
     #: resistance; tracks.speed_profile(vehicle=...)). Default false: the friction ellipse only
     #: (the issue's "default speed profile"), which asks a low-powered car for speeds it cannot
@@ -147,6 +151,7 @@ class ReferenceSpec:
         for k, u in (("a_lat_max", "m/s^2"), ("a_drive_max", "m/s^2"),
                      ("a_brake_max", "m/s^2"), ("v_max", "m/s"), ("mu", "-")):
             positive(f"reference.{k}", getattr(self, k), u)
+        positive_or_inf("reference.j_lat_max", self.j_lat_max, "m/s^3")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -580,7 +580,8 @@ def _reference(sc: Scenario, vehicle: VehicleParams) -> Reference:
         return rec.reference(dt=_ref_dt(sc))
     track = load_track(spec.track, raceline=spec.line == "raceline")
     limits = SpeedLimits(a_lat_max=spec.a_lat_max, a_drive_max=spec.a_drive_max,
-                         a_brake_max=spec.a_brake_max, v_max=spec.v_max, mu=spec.mu)
+                         a_brake_max=spec.a_brake_max, v_max=spec.v_max, mu=spec.mu,
+                         j_lat_max=spec.j_lat_max)
     # drive_limit: the profile also within the car's drive limit (tracks.speed_profile)
     return make_reference(track, limits, dt=_ref_dt(sc),
                           lateral_offset=spec.lateral_offset_m, laps=spec.laps,

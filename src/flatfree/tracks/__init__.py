@@ -54,10 +54,12 @@ from flatfree.tracks.reference import (
     sample_reference,
 )
 from flatfree.tracks.speed import (
+    J_LAT_HANDLING,
     SpeedLimits,
     SpeedProfile,
     constant_speed_profile,
     drive_acceleration,
+    jerk_speed_cap,
     speed_profile,
     top_speed,
 )
@@ -66,6 +68,7 @@ __all__ = [
     "DEFAULT_DS",
     "DEFAULT_SMOOTHING_LENGTH",
     "GC",
+    "J_LAT_HANDLING",
     "RS",
     "FrenetProjector",
     "Gate",
@@ -85,6 +88,7 @@ __all__ = [
     "frenet_init",
     "frenet_project",
     "iso3888_1_gates",
+    "jerk_speed_cap",
     "lateral_deviation_acceleration",
     "load_recording",
     "load_track",

@@ -42,6 +42,67 @@ closed track the periodic fixed point would be approached only geometrically. Th
 is unchanged: it ignores drag and rolling resistance, which would only help the car slow down,
 so the braking side stays conservative (feasible with the brakes alone).
 
+Lateral-jerk limit (optional, ``SpeedLimits(j_lat_max=...)``, default off). The friction
+ellipse bounds the lateral acceleration v^2 kappa but not how fast it changes: on a rough path
+(curvature changing fast along s) the profile can ask for a swing of lateral acceleration the
+car cannot follow (benchmarks/README.md, "Yaw error: what the targets allow together": LVMS
+smoothed at 20 m, 11 m/s^2 in 0.6 s at 30 m/s). Along the path, with v' = dv/ds = a_x / v,
+
+    d(v^2 kappa)/dt = v d(v^2 kappa)/ds = v^3 dkappa/ds  +  2 v a_x kappa.          (J)
+
+The limit keeps the first term, the lateral jerk of steady travel (constant speed), within
+j_lat_max at every node by a node cap applied with the lateral caps, before the passes (which
+then keep the longitudinal limits):
+
+    v_j^3 |dkappa/ds|_j <= j_lat_max,   i.e.   u_j = v_j^2 <= (j_lat_max / |dkappa/ds|_j)^(2/3),
+
+(:func:`jerk_speed_cap`), with dkappa/ds the track's own node derivative
+:attr:`Track.dkappa_ds` (the analytic derivative of the fitted spline's curvature, the slope
+that the track's Hermite curvature interpolation uses; a centred difference of the node
+curvatures, O(ds^2), differs from it by up to 2.4 % of the largest |dkappa/ds| of a bundled
+track, Spa, at 1 m nodes). ``inf`` (the default) skips the cap entirely, so the default
+profile is the friction-ellipse profile bit for bit.
+
+What the cap neglects. (a) The second term of (J), 2 v a_x kappa = 2 a_x (v^2 kappa) / v: the
+jerk of speeding up or slowing down in a curve. The cap cannot hold it without coupling to the
+passes (a_x is what they compute), and it is bounded by the ellipse: at a node, (a_x / a_x,max)^2
++ (v^2 kappa / a_y,max)^2 <= 1 gives |a_x v^2 kappa| <= a_x,max a_y,max / 2, so
+
+    |2 v a_x kappa| <= a_x,max a_y,max / v        (6 * 6 / v with the defaults: 1.2 m/s^3 at
+                                                   30 m/s, 4.8 m/s^3 at 7.5 m/s),
+
+and the bound is nearly reached (98.8-99.8 % of it at the worst segment of each bundled
+track: slow corners, braking or driving at 45 degrees on the ellipse).
+On the profile's segments the finite difference of v^2 kappa in time is exactly the discrete
+(J): 2 vbar a_i kbar + ubar vbar (kappa_{i+1} - kappa_i) / ds (bars: segment means), and the
+ellipse at both end nodes bounds the first part by a_x,max a_y,max vbar / min(v_i, v_(i+1))^2
+(tests/test_speed_jerk.py checks this and the total on LVMS smoothed at 20 m). Measured with
+j_lat_max = 15 m/s^3: at most 3.8 m/s^3 anywhere on the bundled tracks (slow corners), at most
+1.6 m/s^3 on segments where the steady term is within 10 % of the limit (with 5 m/s^3: 3.9
+where it is). The two terms add, and the car's jerk exceeds the cap's, only when it drives
+while |kappa| grows or brakes while |kappa| falls; braking into a corner and driving out of
+one they have opposite signs.
+(b) Between nodes: the cap binds at the nodes, the segment's steady term ubar vbar Delta
+kappa / ds exceeds j_lat_max by at most 0.4 % (measured, 1 m nodes). (c) Everything of the
+car: the jerk is that of a point on the path at the profile's speed; the car's sideslip, yaw
+and tyre lags add their own transients.
+
+Choice of a value. :data:`J_LAT_HANDLING` = 15 m/s^3 (module constant, a suggestion, not a
+default). An order of magnitude from the car: the linear 3DoF model of the peugeot406 at the
+static cornering stiffnesses (C_f / C_r = 97,700 / 73,800 N/rad) lags a ramp of lateral
+acceleration by its mean delay T = -G'(0)/G(0) of the steer-to-a_y transfer function, 0.22 s
+at 20 m/s, 0.33 s at 30 m/s; a controller that follows an a_y ramp of slope j falls behind by
+about j T, which has to fit in the friction the profile leaves unused, mu g - a_lat,max =
+3.8 m/s^2 with the defaults: j <~ 12-17 m/s^3 (an order of magnitude, not a stability
+proof). The steer-rate limit, 0.4 rad/s, allows j = 0.4 / (L/v^2 + K_us) ~ 50-100 m/s^3 at
+20-30 m/s: not the binding limit. Measured (noise-free closed loop, the first 10 s of LVMS
+smoothed at 20 m, 2026-11-22): ``paper`` completes with j_lat_max from 10 to 18 m/s^3 and
+leaves the track with 19 to 30 or none; ``paper-imu`` completes with 10 to 20 and leaves with
+21 to 28 or none. No bundled track's default profile exceeds 21 m/s^3, and 15 m/s^3 costs at
+most 0.31 s a lap (Spa, 0.12 %). For comparison, the limit of UN R79 for automatically
+commanded steering [R79] (a comfort and automation rule, not a handling limit) is 5 m/s^3,
+which costs 0.5-14 s a lap here (IMS to Spa).
+
 References
 ----------
 [FB] E. Velenis, P. Tsiotras, "Minimum-time travel for a vehicle with acceleration limits:
@@ -53,6 +114,11 @@ References
 [VM] shared/reference/VEHICLE_MODEL.md 1.9 (aerodynamic drag 1/2 rho C_d A v^2, rolling
      resistance f_r m g); the power cap of the drive torque:
      :class:`flatfree.actuators.ActuatorParams`.
+[R79] UN Regulation No. 79 (steering equipment), 03 series, automatically commanded steering
+     functions (ACSF) of categories B1 and C: lateral jerk, as the 500 ms moving average of the
+     derivative of the filtered lateral acceleration, at most 5 m/s^3 (the value as listed by
+     the criticality-metrics catalogue, https://criticality-metrics.readthedocs.io, "Lateral
+     Jerk": 0.5 g/s [UNECE79]).
 """
 
 from __future__ import annotations
@@ -63,19 +129,27 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from flatfree._validate import positive
+from flatfree._validate import positive, positive_or_inf
 from flatfree.tracks.geometry import Track
 from flatfree.units import G
 from flatfree.vehicles.params import VehicleParams
 
 __all__ = [
+    "J_LAT_HANDLING",
     "SpeedLimits",
     "SpeedProfile",
     "constant_speed_profile",
     "drive_acceleration",
+    "jerk_speed_cap",
     "speed_profile",
     "top_speed",
 ]
+
+#: A lateral-jerk limit for :attr:`SpeedLimits.j_lat_max` [m/s^3] that keeps a rough path
+#: drivable at a small cost in lap time (module docstring, "Choice of a value": the friction
+#: reserve over the car's a_y lag, and closed-loop runs on LVMS smoothed at 20 m). Not a
+#: default: the default profile has no jerk limit.
+J_LAT_HANDLING = 15.0
 
 #: Speed floor of the power cap max_power / v [m/s] (the same floor as
 #: ``flatfree.simulation.flying_lap_speed``): below it the torque limit binds for any real car.
@@ -104,6 +178,11 @@ class SpeedLimits:
         Top speed [m/s]. Default 50 m/s (180 km/h), a team choice for a road car on a race track.
     mu : float
         Road friction coefficient [-]; every acceleration limit is capped by mu g.
+    j_lat_max : float
+        Largest lateral jerk of steady travel along the path, v^3 |d kappa/ds| at the nodes
+        [m/s^3] (module docstring, "Lateral-jerk limit"). Default ``inf``: off, the
+        friction-ellipse profile bit for bit. :data:`J_LAT_HANDLING` (15 m/s^3) keeps a rough
+        path drivable and costs at most 0.12 % of a lap on the bundled tracks.
     """
 
     a_lat_max: float = field(default=6.0, metadata={"unit": "m/s^2"})
@@ -111,6 +190,7 @@ class SpeedLimits:
     a_brake_max: float = field(default=6.0, metadata={"unit": "m/s^2"})
     v_max: float = field(default=50.0, metadata={"unit": "m/s"})
     mu: float = field(default=1.0, metadata={"unit": "-"})
+    j_lat_max: float = field(default=math.inf, metadata={"unit": "m/s^3"})
 
     def __post_init__(self) -> None:
         positive("a_lat_max", self.a_lat_max, "m/s^2")
@@ -118,6 +198,7 @@ class SpeedLimits:
         positive("a_brake_max", self.a_brake_max, "m/s^2")
         positive("v_max", self.v_max, "m/s")
         positive("mu", self.mu, "-")
+        positive_or_inf("j_lat_max", self.j_lat_max, "m/s^3")
 
     @property
     def ay(self) -> float:
@@ -410,7 +491,9 @@ def speed_profile(
     ----------
     track : Track
     limits : SpeedLimits, optional
-        Default :class:`SpeedLimits()` (6 m/s^2 lateral, +3 / -6 m/s^2 longitudinal, 50 m/s).
+        Default :class:`SpeedLimits()` (6 m/s^2 lateral, +3 / -6 m/s^2 longitudinal, 50 m/s,
+        no lateral-jerk limit). A finite ``j_lat_max`` also caps every node at
+        :func:`jerk_speed_cap` before the passes (module docstring, "Lateral-jerk limit").
     v_start, v_end : float, optional
         Speed at the start / end of an OPEN path [m/s] (default: unconstrained, a flying
         start/finish). Not allowed on a closed track, whose profile is periodic.
@@ -452,6 +535,8 @@ def speed_profile(
     with np.errstate(divide="ignore"):
         u_lat = np.where(kappa != 0.0, ay / np.abs(kappa), np.inf)  # [QSS] v^2 |kappa| <= ay
     u_lat = np.minimum(u_lat, lim.v_max**2)
+    if math.isfinite(lim.j_lat_max):  # inf (default): not even a no-op minimum (bit for bit)
+        u_lat = np.minimum(u_lat, jerk_speed_cap(track, lim.j_lat_max) ** 2)
     if vehicle is not None:
         u_lat = np.minimum(u_lat, drv[_UTOP])  # the car's top speed (module doc)
     u, _ = _passes(kappa, track.ds, u_lat, lim.ax_drive, lim.ax_brake, ay, track.closed,
@@ -461,6 +546,33 @@ def speed_profile(
     t = _node_times(v, track.ds, f"speed profile of {track.name or 'track'}")
     return SpeedProfile(track=track, s=track.s.copy(), v=v, a=a, t=t, limits=lim,
                         vehicle=vehicle)
+
+
+def jerk_speed_cap(track: Track, j_lat_max: float) -> np.ndarray:
+    """Node speed cap of the lateral-jerk limit [m/s]: v <= (j_lat_max / |d kappa/ds|)^(1/3).
+
+    The speed at which steady travel along ``track`` (constant speed) changes its lateral
+    acceleration v^2 kappa at the rate ``j_lat_max`` [m/s^3]: d(v^2 kappa)/dt = v^3 d kappa/ds.
+    d kappa/ds is the track's own node value :attr:`Track.dkappa_ds` (the analytic derivative
+    of the fitted spline's curvature, not a finite difference); ``inf`` where it is 0. See the
+    module docstring ("Lateral-jerk limit") for what the cap leaves out.
+
+    Parameters
+    ----------
+    track : Track
+    j_lat_max : float
+        Lateral-jerk limit [m/s^3], > 0 (``inf``: no cap, all ``inf``).
+
+    Returns
+    -------
+    ndarray (N+1,)
+        The cap at the nodes [m/s].
+    """
+    j = positive_or_inf("j_lat_max", j_lat_max, "m/s^3")
+    dk = np.abs(track.dkappa_ds)
+    with np.errstate(divide="ignore", over="ignore"):
+        # v^3 |dkappa/ds| <= j_lat_max; the cube root (not ** (1/3)) is exact on cubes
+        return np.where(dk > 0.0, np.cbrt(j / dk), np.inf)
 
 
 def constant_speed_profile(track: Track, speed: float) -> SpeedProfile:
@@ -478,3 +590,4 @@ def positive_or_zero(name: str, value) -> float:
     if not (math.isfinite(v) and v >= 0.0):
         raise ValueError(f"{name} = {value!r} m/s: must be a finite number >= 0")
     return v
+
