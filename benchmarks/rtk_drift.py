@@ -4,6 +4,7 @@ Run as a script::
 
     python benchmarks/rtk_drift.py                       # Norisring and Spa, seeds 0-4
     python benchmarks/rtk_drift.py --tracks Norisring --seeds 10 --tau 10,60 --std 0.01
+    python benchmarks/rtk_drift.py --order 2             # a smooth (second-order) drift
 
 The named scenarios' position noise (:data:`flatfree.scenarios.REALISTIC_SENSORS`) is 1 mm of
 white jitter per 1 kHz sample: an RTK-GNSS/INS datasheet's "1 cm" accuracy is mostly a *slow*
@@ -35,10 +36,10 @@ from flatfree.sensors import SensorSuite
 from flatfree.simulation import simulate
 
 
-def _with_drift(sc, std: float, tau: float):
+def _with_drift(sc, std: float, tau: float, order: int = 1):
     ch = dict(REALISTIC_SENSORS.channels)
     for k in ("x", "y"):
-        ch[k] = dataclasses.replace(ch[k], markov_std=std, markov_tau_s=tau)
+        ch[k] = dataclasses.replace(ch[k], markov_std=std, markov_tau_s=tau, markov_order=order)
     return sc.with_(sensors=SensorSuite(ch))
 
 
@@ -49,11 +50,15 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--std", type=float, default=0.01, help="drift std per axis [m]")
     ap.add_argument("--tau", default="10,60", help="correlation times [s]")
+    ap.add_argument("--order", type=int, default=1, choices=(1, 2),
+                    help="Gauss-Markov order (2: smooth at short time scales, like an INS "
+                         "blend; sensors module docstring)")
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     print(f"machine: {platform.machine()}, python {platform.python_version()}, "
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
-    print(f"position drift per axis: std {args.std * 100:.1f} cm, white jitter as named")
+    print(f"position drift per axis: std {args.std * 100:.1f} cm, Gauss-Markov order "
+          f"{args.order}, white jitter as named")
     print("max over the lap after the start-up [cm]: the position error across the path (every "
           "run); over the completed runs, the true lateral error (per seed) and the one the "
           "controller sees (measured pose)")
@@ -64,7 +69,7 @@ def main(argv: list[str] | None = None) -> None:
                 for seed in range(args.seeds):
                     sc = named_scenario(name, track=track, seed=seed)
                     if tau is not None:
-                        sc = _with_drift(sc, args.std, tau)
+                        sc = _with_drift(sc, args.std, tau, args.order)
                     tr = simulate(sc)
                     m = compute_metrics(tr)
                     after = tr.time >= tr.time[0] + DEFAULT_STARTUP_S

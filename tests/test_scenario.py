@@ -32,6 +32,8 @@ def _rich() -> Scenario:
         timing=Timing(plant_dt_s=0.001, control_dt_s=0.002, log_dt_s=0.01, duration_s=30.0),
         sensors=SensorSuite({"vx": SensorChannel(noise_std=0.05, markov_std=0.02,
                                                  markov_tau_s=2.0),
+                             "x": SensorChannel(markov_std=0.01, markov_tau_s=60.0,
+                                                markov_order=2),
                              "e_y": SensorChannel(noise_std=0.01, rate_hz=100.0,
                                                   delay_s=0.01)}),
         noise=False,

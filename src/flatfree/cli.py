@@ -285,6 +285,9 @@ startup_s = 1.0
 # delay; a channel without a table is exact
 [sensors.x]
 noise_std = 0.002           # [m]
+# markov_std = 0.01         # [m] a slow (Gauss-Markov) drift on top: its std,
+# markov_tau_s = 60.0       # [s] its correlation time,
+# markov_order = 2          # 1: first order (a random walk at short time scales), 2: smooth
 [sensors.y]
 noise_std = 0.002           # [m]
 [sensors.psi]

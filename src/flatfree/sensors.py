@@ -18,6 +18,18 @@ names to channels. The simulation evaluates them at the controller's rate throug
   sqrt(1 - phi^2) w[k]``, ``phi = exp(-dt / markov_tau_s)``, started from its stationary
   distribution: the slow error of, e.g., a GNSS/INS position (a datasheet's "1 cm" accuracy is
   mostly such a slow error, the sample-to-sample jitter being much smaller).
+  ``markov_order = 2``: a second-order Gauss-Markov error instead, two such first-order stages
+  in cascade (the same ``phi``) scaled to the stationary standard deviation ``markov_std``,
+  also started stationary. Its autocorrelation at a lag of ``m`` samples is exactly
+  ``phi^m (1 + m tanh(dt / markov_tau_s))``, which tends to ``exp(-t / tau) (1 + t / tau)`` as
+  dt -> 0 (the second-order Gauss-Markov model of GNSS error analysis); its sample-to-sample
+  increments have the variance ``2 markov_std^2 (1 - phi (1 + tanh(dt / tau)))``, of order
+  dt^2 where the first-order drift's is of order dt: a smooth error, like the position an
+  inertial unit blends from a receiver's, where the first-order one is a random walk at short
+  time scales. (Derivation: with ``s[k] = phi s[k-1] + w[k]`` and ``y[k] = phi y[k-1] + s[k]``,
+  ``y[k] = sum_j (j + 1) phi^j w[k-j]``; var y = (1 + phi^2) / (1 - phi^2)^3,
+  cov(y, s) = 1 / (1 - phi^2)^2, var s = 1 / (1 - phi^2), the lag-m covariance
+  phi^m (var y + m cov(y, s)).)
 - **bias**: a constant offset added to every sample.
 
 Units of ``noise_std`` and ``bias`` are those of the channel's signal (SI).
@@ -59,8 +71,11 @@ class SensorChannel:
     delay_s
         Transport delay [s] (>= 0), rounded to whole controller periods.
     markov_std, markov_tau_s
-        Stationary standard deviation (signal's unit) and correlation time [s] of a first-order
+        Stationary standard deviation (signal's unit) and correlation time [s] of a
         Gauss-Markov drift (module docstring); 0 / None: no drift.
+    markov_order
+        1 (default): a first-order Gauss-Markov drift; 2: a second-order one (smooth at short
+        time scales; module docstring).
     """
 
     noise_std: float = 0.0
@@ -69,6 +84,7 @@ class SensorChannel:
     delay_s: float = 0.0
     markov_std: float = 0.0
     markov_tau_s: float | None = None
+    markov_order: int = 1
 
     def __post_init__(self) -> None:
         nonnegative("noise_std", self.noise_std)
@@ -84,6 +100,8 @@ class SensorChannel:
                 f"markov_std = {self.markov_std!r}: a drift needs its correlation time "
                 "markov_tau_s [s]"
             )
+        if isinstance(self.markov_order, bool) or self.markov_order not in (1, 2):
+            raise ValueError(f"markov_order = {self.markov_order!r}: must be 1 or 2")
 
 
 @dataclass(frozen=True, slots=True)
@@ -171,8 +189,9 @@ class SensorSuite:
             for i in range(lo, hi):
                 ch = chans[i]
                 if ch.markov_std > 0.0:
-                    noise[:, i] += _gauss_markov(rng, int(n_steps), ch.markov_std,
-                                                 math.exp(-dt_control / ch.markov_tau_s))
+                    make = _gauss_markov if ch.markov_order == 1 else _gauss_markov2
+                    noise[:, i] += make(rng, int(n_steps), ch.markov_std,
+                                        math.exp(-dt_control / ch.markov_tau_s))
             lo = hi
         max_delay = int(table[:, _DELAY].max()) if n else 0
         history = np.full((n, max_delay + 1), np.nan)
@@ -187,6 +206,25 @@ def _gauss_markov(rng: np.random.Generator, n: int, std: float, phi: float) -> n
     w = rng.standard_normal(n) * (std * math.sqrt(1.0 - phi * phi))
     w[0] = rng.standard_normal() * std  # b[0] from the stationary distribution
     return lfilter([1.0], [1.0, -phi], w)
+
+
+def _gauss_markov2(rng: np.random.Generator, n: int, std: float, phi: float) -> np.ndarray:
+    """A stationary second-order Gauss-Markov sequence (module docstring): two first-order
+    stages in cascade, their state before the first sample drawn from its stationary
+    distribution, scaled to the standard deviation ``std``."""
+    from scipy.signal import lfilter
+
+    q = 1.0 - phi * phi
+    var_s, cov_ys, var_y = 1.0 / q, 1.0 / (q * q), (1.0 + phi * phi) / (q * q * q)
+    # the state (s, y) at k = -1: s from its marginal, y from its law given s
+    s_m = rng.standard_normal() * math.sqrt(var_s)
+    y_m = (cov_ys / var_s) * s_m + rng.standard_normal() * math.sqrt(
+        var_y - cov_ys * cov_ys / var_s)
+    scale = std / math.sqrt(var_y)
+    w = rng.standard_normal(n) * scale
+    s1, _ = lfilter([1.0], [1.0, -phi], w, zi=[phi * s_m * scale])
+    y, _ = lfilter([1.0], [1.0, -phi], s1, zi=[phi * y_m * scale])
+    return y
 
 
 @njit(**no_refcount({"cache": True}))
