@@ -86,6 +86,20 @@ def min_band(t: np.ndarray, v: np.ndarray, g: np.ndarray, eps: float,
     return hi
 
 
+def write_smoothed(track: str, length: float, folder: str) -> str:
+    """``track``'s centerline smoothed at the cut-off wavelength ``length`` [m], written as a
+    track file (x, y, widths) in ``folder``; returns its path. Read back, it is smoothed again
+    at the default 20 m."""
+    tk = load_track(track, smoothing_length=length)
+    path = os.path.join(folder, f"{track}_{length:g}.csv")
+    cols = (tk.x, tk.y, tk.w_right, tk.w_left)
+    if tk.closed:  # the last node repeats the first
+        cols = tuple(c[:-1] for c in cols)
+    np.savetxt(path, np.column_stack(cols), delimiter=",",
+               header="x_m,y_m,w_tr_right_m,w_tr_left_m")
+    return path
+
+
 def _lap(scenario: str, track: str, *, a_lat_max: float | None = None):
     """A lap of ``scenario`` on ``track`` (a bundled name or a CSV path); the samples after the
     metrics' start-up as (trajectory, keep mask, t, speed, course error, yaw error, gap g)."""
@@ -161,13 +175,7 @@ def _smoothed(args, lengths: list[float]) -> None:
             bundled = load_track(track)
             own = LVMS_SMOOTHING_LENGTH if track.upper() == "LVMS" else DEFAULT_SMOOTHING_LENGTH
             for length in lengths:
-                tk = load_track(track, smoothing_length=length)
-                path = os.path.join(folder, f"{track}_{length:g}.csv")
-                cols = (tk.x, tk.y, tk.w_right, tk.w_left)
-                if tk.closed:  # the last node repeats the first
-                    cols = tuple(c[:-1] for c in cols)
-                np.savetxt(path, np.column_stack(cols), delimiter=",",
-                           header="x_m,y_m,w_tr_right_m,w_tr_left_m")
+                path = write_smoothed(track, length, folder)
                 new = load_track(path)
                 moved = float(np.max(np.abs(bundled.project(new.x, new.y)["e_y"])))
                 tr, keep, _, _, _, yaw, _ = _lap(args.scenario, path)

@@ -636,10 +636,7 @@ def intelligent_step_external(p, s, y, y_ref, y_ref_dot, y_ref_ddot, f_hat, y_ha
     u = _law(p, s, f_hat, e, y_dot_hat - y_ref_dot, y_ref_dot, y_ref_ddot, u_prev, e * p[_DT])
     s[_FH] = f_hat
     s[_YD] = y_dot_hat
-    s[_U] = u
-    ub0 = _HS + 2 * L
-    s[ub0 + head] = u
-    s[ub0 + head + L] = u
+    intelligent_set_applied(p, s, u)  # the output into the u ring (finite, window full)
     return u
 
 
@@ -664,9 +661,7 @@ def intelligent_override(p, s, y, y_ref, y_ref_dot, y_ref_ddot, f_hat, y_hat, y_
     e = y_hat - y_ref
     u = _law(p, s, f_hat, e, y_dot_hat - y_ref_dot, y_ref_dot, y_ref_ddot, u_prev, 0.0)
     s[_FH] = f_hat
-    s[_U] = u
-    s[ub0 + head] = u
-    s[ub0 + head + L] = u
+    intelligent_set_applied(p, s, u)  # replaces the step's output in the u ring
     return u
 
 # --------------------------------------------------------------------------------------------

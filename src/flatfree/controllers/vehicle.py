@@ -860,24 +860,27 @@ def _imu_lateral(p, s, coef, y_alg, y, a, yr, yrd, yrdd, u_prev):
         coef[_IMU_E] = y
         coef[_IMU_ED] = s[_YD_I]  # the algebraic estimate of e_y' (its window is full)
         coef[_IMU_STARTED] = 1.0
-        f_hat = coef[_IMU_A] - coef[_IMU_B] - p[_ALPHA] * coef[_IMU_U]
-        return intelligent_override(p, s, y_alg, yr, yrd, yrdd, f_hat, coef[_IMU_E],
-                                    coef[_IMU_ED])
-    phi = coef[_IMU_PHI]
-    coef[_IMU_A] = phi * coef[_IMU_A] + (1.0 - phi) * a
-    coef[_IMU_U] = phi * coef[_IMU_U] + (1.0 - phi) * u_prev
-    dt = p[_DT_I]
-    # a is the mean e_y'' over the last period (less the bias estimate): predict, then
-    # correct with e_y
-    acc = a - coef[_IMU_B]
-    coef[_IMU_E] += dt * coef[_IMU_ED] + 0.5 * dt * dt * acc
-    coef[_IMU_ED] += dt * acc
-    inn = y - coef[_IMU_E]
-    coef[_IMU_E] += coef[_IMU_L1] * inn
-    coef[_IMU_ED] += coef[_IMU_L2] * inn
-    coef[_IMU_B] -= coef[_IMU_L3] * inn
+        starting = True
+    else:
+        starting = False
+        phi = coef[_IMU_PHI]
+        coef[_IMU_A] = phi * coef[_IMU_A] + (1.0 - phi) * a
+        coef[_IMU_U] = phi * coef[_IMU_U] + (1.0 - phi) * u_prev
+        dt = p[_DT_I]
+        # a is the mean e_y'' over the last period (less the bias estimate): predict, then
+        # correct with e_y
+        acc = a - coef[_IMU_B]
+        coef[_IMU_E] += dt * coef[_IMU_ED] + 0.5 * dt * dt * acc
+        coef[_IMU_ED] += dt * acc
+        inn = y - coef[_IMU_E]
+        coef[_IMU_E] += coef[_IMU_L1] * inn
+        coef[_IMU_ED] += coef[_IMU_L2] * inn
+        coef[_IMU_B] -= coef[_IMU_L3] * inn
     # the ultra-local model at the filtered instant, the bias removed
     f_hat = coef[_IMU_A] - coef[_IMU_B] - p[_ALPHA] * coef[_IMU_U]
+    if starting:  # the window's step was just taken: replace its output
+        return intelligent_override(p, s, y_alg, yr, yrd, yrdd, f_hat, coef[_IMU_E],
+                                    coef[_IMU_ED])
     return intelligent_step_external(p, s, y_alg, yr, yrd, yrdd, f_hat, coef[_IMU_E],
                                      coef[_IMU_ED])
 

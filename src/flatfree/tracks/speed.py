@@ -71,8 +71,9 @@ passes (a_x is what they compute), and it is bounded by the ellipse: at a node, 
     |2 v a_x kappa| <= a_x,max a_y,max / v        (6 * 6 / v with the defaults: 1.2 m/s^3 at
                                                    30 m/s, 4.8 m/s^3 at 7.5 m/s),
 
-and the bound is nearly reached (98.8-99.8 % of it at the worst segment of each bundled
-track: slow corners, braking or driving at 45 degrees on the ellipse).
+and the bound is nearly reached (98.0-99.6 % of it at the worst segment of each bundled
+track: slow corners, braking or driving at 45 degrees on the ellipse; figures of this
+docstring from ``benchmarks/jerk_limit.py``).
 On the profile's segments the finite difference of v^2 kappa in time is exactly the discrete
 (J): 2 vbar a_i kbar + ubar vbar (kappa_{i+1} - kappa_i) / ds (bars: segment means), and the
 ellipse at both end nodes bounds the first part by a_x,max a_y,max vbar / min(v_i, v_(i+1))^2
@@ -83,7 +84,8 @@ where it is). The two terms add, and the car's jerk exceeds the cap's, only when
 while |kappa| grows or brakes while |kappa| falls; braking into a corner and driving out of
 one they have opposite signs.
 (b) Between nodes: the cap binds at the nodes, the segment's steady term ubar vbar Delta
-kappa / ds exceeds j_lat_max by at most 0.4 % (measured, 1 m nodes). (c) Everything of the
+kappa / ds exceeds j_lat_max by at most 0.4 % at 15 m/s^3 and 0.9 % at 5 (measured on the
+bundled tracks, 1 m nodes). (c) Everything of the
 car: the jerk is that of a point on the path at the profile's speed; the car's sideslip, yaw
 and tyre lags add their own transients.
 
@@ -96,12 +98,12 @@ about j T, which has to fit in the friction the profile leaves unused, mu g - a_
 3.8 m/s^2 with the defaults: j <~ 12-17 m/s^3 (an order of magnitude, not a stability
 proof). The steer-rate limit, 0.4 rad/s, allows j = 0.4 / (L/v^2 + K_us) ~ 50-100 m/s^3 at
 20-30 m/s: not the binding limit. Measured (noise-free closed loop, the first 10 s of LVMS
-smoothed at 20 m, 2026-11-22): ``paper`` completes with j_lat_max from 10 to 18 m/s^3 and
-leaves the track with 19 to 30 or none; ``paper-imu`` completes with 10 to 20 and leaves with
-21 to 28 or none. No bundled track's default profile exceeds 21 m/s^3, and 15 m/s^3 costs at
-most 0.31 s a lap (Spa, 0.12 %). For comparison, the limit of UN R79 for automatically
-commanded steering [R79] (a comfort and automation rule, not a handling limit) is 5 m/s^3,
-which costs 0.5-14 s a lap here (IMS to Spa).
+smoothed at 20 m, 2026-11-22, limits from 8 to 30 m/s^3 tried): ``paper`` completes with
+j_lat_max from 8 to 18 m/s^3 and leaves the track with 19 to 30 or none; ``paper-imu``
+completes with 8 to 20 and leaves with 21 to 30 or none. No bundled track's default profile
+exceeds 21 m/s^3, and 15 m/s^3 costs at most 0.31 s a lap (Spa, 0.12 %). For comparison,
+the limit of UN R79 for automatically commanded steering [R79] (a comfort and automation rule,
+not a handling limit) is 5 m/s^3, which costs 0.5-14 s a lap here (IMS to Spa).
 
 References
 ----------
