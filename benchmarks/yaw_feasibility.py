@@ -91,13 +91,7 @@ def write_smoothed(track: str, length: float, folder: str) -> str:
     track file (x, y, widths) in ``folder``; returns its path. Read back, it is smoothed again
     at the default 20 m."""
     tk = load_track(track, smoothing_length=length)
-    path = os.path.join(folder, f"{track}_{length:g}.csv")
-    cols = (tk.x, tk.y, tk.w_right, tk.w_left)
-    if tk.closed:  # the last node repeats the first
-        cols = tuple(c[:-1] for c in cols)
-    np.savetxt(path, np.column_stack(cols), delimiter=",",
-               header="x_m,y_m,w_tr_right_m,w_tr_left_m")
-    return path
+    return str(tk.to_csv(os.path.join(folder, f"{track}_{length:g}.csv")))
 
 
 def _lap(scenario: str, track: str, *, a_lat_max: float | None = None):

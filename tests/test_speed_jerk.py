@@ -33,12 +33,7 @@ def rough_lvms(tmp_path_factory) -> str:
     """LVMS smoothed at 20 m instead of its 60 m, written as a track file and read back (which
     smooths it again at 20 m): the rough centerline of benchmarks/yaw_feasibility.py part 3."""
     tk = load_track("LVMS", smoothing_length=20.0)
-    cols = (tk.x, tk.y, tk.w_right, tk.w_left)
-    cols = tuple(c[:-1] for c in cols)  # closed: the last node repeats the first
-    path = tmp_path_factory.mktemp("rough") / "LVMS_20.csv"
-    np.savetxt(path, np.column_stack(cols), delimiter=",",
-               header="x_m,y_m,w_tr_right_m,w_tr_left_m")
-    return str(path)
+    return str(tk.to_csv(tmp_path_factory.mktemp("rough") / "LVMS_20.csv"))
 
 
 def _clothoid(c: float, length: float, ds: float = 1.0) -> Track:

@@ -115,6 +115,29 @@ def test_names_are_case_insensitive_and_a_user_copy_loads_the_same(tmp_path):
     assert d.name == "my_track"
 
 
+def test_a_written_track_reads_back_as_its_nodes(tmp_path):
+    """Track.to_csv: the reader gets the nodes bit for bit, the widths in TUMFTM order, a closed
+    track's loop from the closing repeat (an open path's file has none)."""
+    smooth = T.load_track("Norisring", smoothing_length=40.0)
+    pts = T.read_track_points(smooth.to_csv(tmp_path / "smooth.csv"))
+    assert pts.closed is True  # the closing repeat, dropped by the reader
+    for got, want in ((pts.x, smooth.x), (pts.y, smooth.y), (pts.w_left, smooth.w_left),
+                      (pts.w_right, smooth.w_right)):
+        np.testing.assert_array_equal(got, want[:-1])
+    assert T.load_track(tmp_path / "smooth.csv").closed
+    # widths unknown (a race line): plain x, y; an open path is read back open
+    line = T.load_track("Monza", raceline=True)
+    assert np.isnan(line.w_left).all()
+    f = line.to_csv(tmp_path / "line.csv")
+    assert f.read_text().splitlines()[0] == "# x_m,y_m"
+    arc = T.Track.from_points(100 * np.sin(np.linspace(0, 2, 50)),
+                              100 * (1 - np.cos(np.linspace(0, 2, 50))), closed=False)
+    pts = T.read_track_points(arc.to_csv(tmp_path / "arc.csv"))
+    assert pts.closed is None
+    np.testing.assert_array_equal(pts.x, arc.x)
+    assert not T.load_track(tmp_path / "arc.csv").closed
+
+
 def test_unknown_name_lists_the_valid_ones():
     with pytest.raises(ValueError, match=r"unknown track 'Nurburgring'.*Monza"):
         T.load_track("Nurburgring")

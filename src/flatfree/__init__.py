@@ -46,6 +46,8 @@ _API = {
     # evaluation
     "Scenario": "flatfree.scenario",
     "load_scenario": "flatfree.scenario",
+    "named_scenario": "flatfree.scenarios",
+    "simulate": "flatfree.simulation",
     "Trajectory": "flatfree.trajectory",
     "compute_metrics": "flatfree.metrics",
 }

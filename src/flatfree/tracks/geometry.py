@@ -28,6 +28,7 @@ import enum
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -765,6 +766,38 @@ class Track:
         kind = "closed" if self.closed else "open"
         return (f"Track(name={self.name!r}, {kind}, length={self.length:.1f} m, "
                 f"ds={self.ds:.3f} m, nodes={self.geometry.shape[0]})")
+
+    # -- export ------------------------------------------------------------------------------
+    def to_csv(self, path: str | Path) -> Path:
+        """Write the nodes as a track file that :func:`flatfree.tracks.load_track` reads.
+
+        The TUMFTM layout (``# x_m,y_m,w_tr_right_m,w_tr_left_m``) when both widths are known
+        at every node, else plain ``x_m,y_m``; values in ``%.17g``, so the numbers read back
+        are the nodes' bit for bit. A closed track's last row repeats its first point, which
+        the reader takes as the explicit closure of a loop (an open track's file does not, and
+        is read back open unless its ends meet). Reading the file back resamples and smooths
+        the nodes again (``load_track``'s ``ds`` and ``smoothing_length``): a smoothed track
+        written here (``load_track(name, smoothing_length=...)``) is a user's track file like
+        any other.
+
+        Parameters
+        ----------
+        path : str or Path
+            File to write (overwritten).
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
+        path = Path(path)
+        cols = [self.x, self.y]
+        header = "x_m,y_m"
+        if np.isfinite(self.w_left).all() and np.isfinite(self.w_right).all():
+            cols += [self.w_right, self.w_left]
+            header += ",w_tr_right_m,w_tr_left_m"
+        np.savetxt(path, np.column_stack(cols), fmt="%.17g", delimiter=",", header=header)
+        return path
 
     # -- evaluation --------------------------------------------------------------------------
     def at(self, s) -> dict[str, np.ndarray]:
