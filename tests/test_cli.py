@@ -403,3 +403,103 @@ def test_run_prints_the_steer_lock_warning_as_one_line(runner):
     assert "warning: the reference's tightest curve (radius 9.9 m)" in res.stderr
     assert "UserWarning" not in res.stderr
     json.loads(res.stdout)  # stdout stays machine-readable
+
+
+# ------------------------------------------------------------------------------------------
+# --set FIELD=VALUE
+# ------------------------------------------------------------------------------------------
+def test_set_wins_over_the_options_and_reaches_any_field():
+    from flatfree.cli import build_scenario
+
+    sc = build_scenario("paper-imu", seed=1, track="Monza", duration_s=3.0, noise=False,
+                        settings=["seed=2", "reference.track=Spa", "timing.duration_s=2",
+                                  "noise=true", "reference.j_lat_max=15",
+                                  "sensors.y.markov_order=2", "timing.control_dt_s=0.002",
+                                  "actuators.steer_tau_s=0.05", "road.mu=0.9"])
+    assert (sc.seed, sc.reference.track, sc.timing.duration_s, sc.noise) == (2, "Spa", 2.0, True)
+    assert sc.reference.j_lat_max == 15.0 and sc.sensors.channels["y"].markov_order == 2
+    assert sc.timing.control_dt_s == 0.002 and sc.actuators.steer_tau_s == 0.05
+    assert sc.road.mu == 0.9
+    assert sc.controller_settings["estimator_lat"] == "imu"  # the rest of the base kept
+    # the options still apply where --set does not touch them
+    sc = build_scenario("paper", seed=4, settings=["reference.a_lat_max=5"])
+    assert sc.seed == 4 and sc.reference.a_lat_max == 5.0
+    # --controller drops the other controller's settings first; --set then adds to them
+    sc = build_scenario("paper", controller="flatness", cf_scale=0.3,
+                        settings=["controller_settings.cr_scale=0.5"])
+    assert sc.controller == "flatness"
+    assert dict(sc.controller_settings) == {"cf_scale": 0.3, "cr_scale": 0.5}
+    # a recording replaces the track (the scenario's car and settings are kept)
+    sc = build_scenario("paper", settings=["reference.recording=LVMS_23_01_04_B"])
+    assert sc.reference.recording == "LVMS_23_01_04_B" and sc.reference.track is None
+    assert sc.vehicle == "peugeot406"
+
+
+@pytest.mark.parametrize(
+    ("settings", "needles"),
+    [
+        (["reference.j_lat_max=nan"], ["reference.j_lat_max=nan", "must be > 0"]),
+        (["sensors.y.markov_order=3"], ["sensors.y.markov_order=3", "must be 1 or 2"]),
+        (["seed"], ["setting seed", "FIELD=VALUE"]),
+        (["seed.x=1"], ["seed.x=1", "not a table"]),
+        (["fault.kind=steer_limit"], ["fault.kind=steer_limit", "TOML file"]),
+        (["road.patch.mu=0.5"], ["road.patch.mu=0.5", "TOML file"]),
+        (["timing.control_dt=0.002"], ["timing.control_dt=0.002", "unknown key",
+                                       "control_dt_s"]),
+        (["controller_settings.alpha_lat=nan"], ["controller_settings.alpha_lat=nan",
+                                                 "alpha_lat = nan"]),
+        (["reference.track=Monza", "reference.recording=LVMS_23_01_04_B"], ["not both"]),
+    ],
+)
+def test_run_bad_set_exits_2_naming_the_setting(runner, settings, needles):
+    args = [a for s in settings for a in ("--set", s)]
+    res = _invoke(runner, ["run", *args, *SHORT, "--json"])
+    assert res.exit_code == 2, res.output
+    assert res.stdout == ""
+    for n in needles:
+        assert n in res.stderr, (n, res.stderr)
+
+
+def test_run_with_set_runs_the_changed_scenario(runner, tmp_path):
+    out = tmp_path / "set"
+    res = _invoke(runner, ["run", "paper-imu", "--no-noise", "--duration", "2", "--seed", "1",
+                           "--set", "reference.j_lat_max=15", "--set", "sensors.y.markov_order=2",
+                           "--set", "seed=5", "--json", "--out", str(out)])
+    doc = json.loads(res.stdout)
+    assert res.exit_code == (0 if doc["status"] == "completed" else 1)
+    assert doc["seed"] == 5 and doc["scenario"] == "paper-imu"
+    sc = load_scenario(out / "scenario.toml")
+    assert sc.reference.j_lat_max == 15.0 and sc.sensors.channels["y"].markov_order == 2
+    assert sc.seed == 5 and sc.timing.duration_s == 2.0 and sc.noise is False
+
+
+def test_set_is_documented_in_the_help(runner):
+    for cmd in ("run", "demo"):
+        text = _invoke(runner, [cmd, "--help"]).stdout
+        assert "--set FIELD=VALUE" in text, cmd
+    assert "--set reference.j_lat_max=15 --set sensors.y.markov_order=2" in \
+        _invoke(runner, ["run", "--help"]).stdout
+
+
+def test_demo_set_changes_every_run_and_refuses_what_differs_between_them(runner, tmp_path):
+    from flatfree.cli import DEMO_FIXED_FIELDS, InputError, _demo_tasks
+
+    kw = {"track": None, "seed": 0, "duration_s": 2.0, "rec_duration_s": 2.0,
+          "no_recorded": False, "noise": True}
+    plain = _demo_tasks(**kw)
+    tasks = _demo_tasks(**kw, settings=["timing.control_dt_s=0.002", "road.mu=0.9"])
+    assert [(g, lab) for g, lab, _ in tasks] == [(g, lab) for g, lab, _ in plain]
+    for (_, _, sc), (_, _, before) in zip(tasks, plain, strict=True):
+        assert sc.timing.control_dt_s == 0.002 and sc.road.mu == 0.9
+        assert sc.name == before.name and sc.controller == before.controller
+        assert sc.reference == before.reference and sc.vehicle == before.vehicle
+    for field in DEMO_FIXED_FIELDS:
+        with pytest.raises(InputError, match="cannot be set for all of them"):
+            _demo_tasks(**kw, settings=[f"{field}=1"])
+    with pytest.raises(InputError, match="controller_settings"):
+        _demo_tasks(**kw, settings=["controller_settings.alpha_lat=40"])
+    # a bad value: exit 2 before any run, naming the run and the setting
+    res = _invoke(runner, ["demo", "--out", str(tmp_path / "o"), "--set", "road.mu=-1"])
+    assert res.exit_code == 2
+    assert "paper, flatness" in res.stderr and "road.mu=-1" in res.stderr
+    assert not (tmp_path / "o" / "report.html").exists()

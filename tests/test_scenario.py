@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import math
+import tomllib
+from collections.abc import Mapping
 
 import pytest
 
@@ -15,6 +18,7 @@ from flatfree.scenario import (
     Timing,
     load_scenario,
     scenario_from_toml,
+    scenario_with_settings,
 )
 from flatfree.sensors import SensorChannel, SensorSuite
 
@@ -141,3 +145,246 @@ def test_fault_needs_its_fields():
 def test_missing_file():
     with pytest.raises(ValueError, match="scenario file not found"):
         load_scenario("/nonexistent/x.toml")
+
+
+# ------------------------------------------------------------------------------------------
+# settings "path=value" (scenario_with_settings, Scenario.with_settings, flatfree run --set)
+# ------------------------------------------------------------------------------------------
+def _base() -> Scenario:
+    """The rich scenario with controller settings its controller (mfc-flat) takes."""
+    return _rich().with_(controller_settings={"alpha_lat": 2.5, "window_lat": 20})
+
+
+def _value_at(sc: Scenario, path: str):
+    node = sc
+    for part in path.split("."):
+        if isinstance(node, SensorSuite):
+            node = node.channels
+        node = node[part] if isinstance(node, Mapping) else getattr(node, part)
+    return node
+
+
+def _flat(sc: Scenario) -> dict:
+    """The scenario's TOML document as {dotted path: value}."""
+    out = {}
+
+    def walk(d, prefix):
+        for k, v in d.items():
+            if isinstance(v, dict):
+                walk(v, (*prefix, k))
+            else:
+                out[".".join((*prefix, k))] = v
+
+    walk(tomllib.loads(sc.to_toml()), ())
+    return out
+
+
+@pytest.mark.parametrize(
+    ("setting", "path", "expected"),
+    [
+        ("reference.j_lat_max=15", "reference.j_lat_max", 15.0),
+        ("reference.j_lat_max=1.5e-3", "reference.j_lat_max", 1.5e-3),
+        ("timing.plant_dt_s=5e-4", "timing.plant_dt_s", 5e-4),
+        ("reference.drive_limit=false", "reference.drive_limit", False),
+        ("noise=true", "noise", True),
+        ('reference.track="Monza"', "reference.track", "Monza"),
+        ("reference.track=Monza", "reference.track", "Monza"),  # a bare string
+        ("reference.track=data/my track.csv", "reference.track", "data/my track.csv"),
+        ("name=2024", "name", "2024"),  # a string field takes the text as written
+        ("description=a wet road", "description", "a wet road"),
+        ("plant=3dof", "plant", "3dof"),
+        ("seed=7", "seed", 7),
+        ("reference.laps=3", "reference.laps", 3),
+        (" road.mu = 0.8 ", "road.mu", 0.8),
+        ("road.bank_deg=[[0, 0], [80, -9.2]]", "road.bank_deg", ((0.0, 0.0), (80.0, -9.2))),
+        ("actuators.steer_tau_s=0.05", "actuators.steer_tau_s", 0.05),
+        ("timing.duration_s=5", "timing.duration_s", 5.0),
+        ("sensors.y.markov_order=2", "sensors.y.markov_order", 2),
+        ("sensors.e_y.noise_std=0.03", "sensors.e_y.noise_std", 0.03),
+        ("sensors.ay.rate_hz=100", "sensors.ay.rate_hz", 100.0),
+        ("controller_settings.alpha_lat=40", "controller_settings.alpha_lat", 40),
+        ("controller_settings.window_lat=30", "controller_settings.window_lat", 30),
+        ("vehicle_overrides.mass=900.5", "vehicle_overrides.mass", 900.5),
+        ("vehicle_overrides.iz=1000", "vehicle_overrides.iz", 1000),
+    ],
+)
+def test_a_setting_changes_its_field_and_nothing_else(setting, path, expected):
+    base = _base()
+    sc = scenario_with_settings(base, [setting])
+    got = _value_at(sc, path)
+    assert got == expected and type(got) is type(expected), (got, expected)
+    # every other field as before (a new sensor channel comes with its defaults)
+    before, after = _flat(base), _flat(sc)
+    changed = {k for k in before.keys() | after.keys() if before.get(k) != after.get(k)}
+    parts = path.split(".")
+    if parts[0] == "sensors" and parts[1] not in base.sensors.channels:
+        assert path in changed and all(k.startswith(f"sensors.{parts[1]}.") for k in changed)
+    else:
+        assert changed == {path}
+    # a round trip through TOML gives the same scenario back
+    assert scenario_from_toml(sc.to_toml()) == sc
+    assert _base() == base  # the base is left alone
+
+
+def test_settings_inf_and_defaults_and_order():
+    sc = scenario_with_settings(Scenario(), ["reference.j_lat_max=15"])
+    assert sc.reference.j_lat_max == 15.0
+    assert math.isinf(sc.with_settings(["reference.j_lat_max=inf"]).reference.j_lat_max)
+    # applied in order: the later setting of a path wins
+    assert Scenario().with_settings(["seed=1", "seed=2"]).seed == 2
+    # a mapping takes values as they are; None: the field's default
+    sc = Scenario().with_settings({"timing.duration_s": 3, "reference.track": "Spa"})
+    assert sc.timing.duration_s == 3.0 and isinstance(sc.timing.duration_s, float)
+    assert sc.reference.track == "Spa"
+    assert sc.with_settings({"timing.duration_s": None}).timing.duration_s is None
+    # no settings: the scenario itself
+    base = _rich()
+    assert scenario_with_settings(base, []) is base
+
+
+def test_settings_reach_channels_and_free_tables():
+    base = Scenario(controller="mfc-natural")
+    sc = base.with_settings(["sensors.y.markov_std=0.01", "sensors.y.markov_tau_s=60",
+                             "sensors.y.markov_order=2", "controller_settings.alpha_lat=40",
+                             "controller_settings.estimator_lat=imu",
+                             "vehicle_overrides.mass=1500"])
+    y = sc.sensors.channels["y"]
+    assert (y.markov_std, y.markov_tau_s, y.markov_order, y.noise_std) == (0.01, 60.0, 2, 0.0)
+    assert set(sc.sensors.channels) == {"y"}  # a new channel; the others stay absent (exact)
+    assert dict(sc.controller_settings) == {"alpha_lat": 40, "estimator_lat": "imu"}
+    assert dict(sc.vehicle_overrides) == {"mass": 1500}
+    other = base.with_settings(["vehicle=bmw320i", "vehicle_overrides.mass=1500"])
+    assert other.vehicle == "bmw320i" and dict(other.vehicle_overrides) == {"mass": 1500}
+    # an inline table replaces a channel; {} empties the controller settings
+    rich = _rich().with_settings(["sensors.vx={noise_std = 0.1}", "controller_settings={}"])
+    assert rich.sensors.channels["vx"] == SensorChannel(noise_std=0.1)
+    assert rich.sensors.channels["x"] == _rich().sensors.channels["x"]
+    assert dict(rich.controller_settings) == {}
+    assert scenario_from_toml(rich.to_toml()) == rich
+
+
+def test_setting_a_recording_replaces_the_track_and_back():
+    track = Scenario()
+    rec = track.with_settings(["reference.recording=LVMS_23_01_04_B"])
+    assert rec.reference.recording == "LVMS_23_01_04_B" and rec.reference.track is None
+    assert rec.reference.line == track.reference.line  # the rest of the reference kept
+    back = rec.with_settings(["reference.track=Monza"])
+    assert back.reference.track == "Monza" and back.reference.recording is None
+    with pytest.raises(ValueError) as info:
+        track.with_settings(["reference.track=Spa", "reference.recording=LVMS"])
+    msg = str(info.value)
+    assert "reference.track=Spa" in msg and "reference.recording=LVMS" in msg
+    assert "not both" in msg
+
+
+@pytest.mark.parametrize(
+    ("settings", "words"),
+    [
+        (["seed"], ["setting seed:", "FIELD=VALUE"]),
+        (["=3"], ["setting =3", "empty part"]),
+        (["reference..mu=1"], ["setting reference..mu=1", "empty part"]),
+        (["seed.x=1"], ["setting seed.x=1", "seed = 42 is not a table"]),
+        (["reference.track.x=1"], ["reference.track = 'Norisring' is not a table"]),
+        (["fault.kind=steer_limit"], ["setting fault.kind=steer_limit", "[[fault]]",
+                                      "TOML file"]),
+        (["road.patch.mu=0.5"], ["setting road.patch.mu=0.5", "[[road.patch]]", "TOML file"]),
+        (["road.patch=[]"], ["road.patch", "TOML file"]),
+        (["wheels=4"], ["setting wheels=4", "field wheels", "unknown key"]),
+        (["wheels.front=4"], ["setting wheels.front=4", "wheels is not a table"]),
+        (["timing.x.y=1"], ["setting timing.x.y=1", "timing has no table 'x'"]),
+        (["timing.control_dt=0.002"], ["setting timing.control_dt=0.002",
+                                       "field timing.control_dt", "unknown key",
+                                       "control_dt_s"]),
+        (["reference=3"], ["setting reference=3", "reference is a table"]),
+        (["sensors.vx=0.1"], ["setting sensors.vx=0.1", "sensors.vx is a table"]),
+        (["sensors.vxx.noise_std=0.1"], ["setting sensors.vxx.noise_std=0.1",
+                                         "not a measured channel", "vx"]),
+        (["reference.j_lat_max=nan"], ["setting reference.j_lat_max=nan",
+                                       "field reference.j_lat_max", "= nan", "must be > 0"]),
+        (["reference.j_lat_max=-1"], ["reference.j_lat_max = -1.0", "must be > 0"]),
+        (["reference.laps=inf"], ["setting reference.laps=inf", "reference.laps = inf",
+                                  "integer >= 1"]),
+        (["reference.laps=nan"], ["reference.laps = nan", "integer >= 1"]),
+        (["reference.laps=1.5"], ["reference.laps = 1.5", "integer >= 1"]),
+        (["reference.line=middle"], ["setting reference.line=middle", "'middle'",
+                                     "centerline, raceline"]),
+        (["reference.a_lat_max=\"6\""], ["setting reference.a_lat_max=\"6\"",
+                                         "reference.a_lat_max = '6'", "expected a number"]),
+        (["reference.a_lat_max=fast"], ["reference.a_lat_max = 'fast'", "expected a number"]),
+        (["seed=true"], ["setting seed=true", "seed = True", "expected a number"]),
+        (["seed=-1"], ["setting seed=-1", "seed = -1", "integer >= 0"]),
+        (["noise=yes"], ["setting noise=yes", "noise = 'yes'", "true or false"]),
+        (["sensors.y.markov_order=3"], ["setting sensors.y.markov_order=3",
+                                        "field sensors.y.markov_order", "markov_order = 3"]),
+        (["sensors.y.noise_std=nan"], ["sensors.y.noise_std", "noise_std = nan", "finite"]),
+        (["road.mu=0"], ["setting road.mu=0", "road.mu = 0.0", "> 0"]),
+        (["road.bank_deg=[[0, 0], [0, 1]]"], ["road.bank_deg[1] = [0, 1]", "increase"]),
+        (["actuators.steer_delay_s=-0.1"], ["actuators.steer_delay_s = -0.1", ">= 0"]),
+        # the error names the setting that broke a rule about another field
+        (["seed=3", "timing.plant_dt_s=0.003"],
+         ["setting timing.plant_dt_s=0.003", "timing.control_dt_s", "whole multiple"]),
+        (["controller_settings.alpha_lon=-1"], ["setting controller_settings.alpha_lon=-1",
+                                                "alpha_lon = -1", "> 0"]),
+        (["controller_settings.alpha_lat=0"], ["setting controller_settings.alpha_lat=0",
+                                               "alpha_lat = 0", "nonzero"]),
+        (["controller_settings.alpha_lat=nan"], ["alpha_lat = nan", "finite"]),
+        (["controller_settings.lanes=2"], ["setting controller_settings.lanes=2", "'lanes'",
+                                           "unknown for mfc-flat"]),
+        (["controller=flatness"], ["setting controller=flatness", "unknown for flatness",
+                                   "controller_settings={}"]),
+        (["vehicle=trabant"], ["setting vehicle=trabant", "unknown vehicle 'trabant'"]),
+        (["vehicle_overrides.mass=nan"], ["setting vehicle_overrides.mass=nan",
+                                          "mass = nan kg", "finite"]),
+    ],
+)
+def test_bad_settings_name_the_setting_and_the_value(settings, words):
+    with pytest.raises(ValueError) as info:
+        scenario_with_settings(_base(), settings)
+    msg = str(info.value)
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_every_number_of_a_scenario_refuses_nan():
+    """No silent NaN: a setting ``nan`` of any numeric field (and of a controller setting) is
+    refused, naming the field."""
+    sc = _base()
+    paths = [k for k, v in _flat(sc).items()
+             if isinstance(v, (int, float)) and not isinstance(v, bool)]
+    paths += ["timing.duration_s", "sensors.x.rate_hz", "sensors.x.markov_tau_s"]
+    assert len(paths) > 30
+    for path in paths:
+        with pytest.raises(ValueError) as info:
+            sc.with_settings([f"{path}=nan"])
+        msg = str(info.value)
+        assert msg.startswith(f"setting {path}=nan: "), msg
+        # the field named again by the validator (but int() of a controller's window says
+        # only "cannot convert float NaN to integer")
+        if path != "controller_settings.window_lat":
+            assert path.rsplit(".", 1)[-1] in msg.split(":", 1)[1], msg
+            assert "nan" in msg.split(":", 1)[1], msg
+
+
+def test_settings_must_be_a_sequence_or_a_mapping():
+    with pytest.raises(TypeError, match="expected a sequence"):
+        scenario_with_settings(Scenario(), "seed=3")
+    with pytest.raises(TypeError, match="expected a string"):
+        scenario_with_settings(Scenario(), [("seed", 3)])
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("reference = 3\n", ["field reference", "expected a table"]),
+        ("[road]\npatch = 3\n", ["road.patch", "array of tables"]),
+        ("fault = [1]\n", ["field fault", "array of tables"]),
+        ("[road]\npatches = []\n", ["line 2", "road.patches", "unknown key"]),
+        ("[reference]\nlaps = inf\n", ["line 2", "reference.laps = inf", "integer >= 1"]),
+        ("[reference]\nlaps = true\n", ["reference.laps = True", "integer >= 1"]),
+    ],
+)
+def test_malformed_tables_in_a_file_are_value_errors(text, words):
+    with pytest.raises(ValueError) as info:
+        scenario_from_toml(text, source="f.toml")
+    for w in words:
+        assert w in str(info.value), (w, str(info.value))

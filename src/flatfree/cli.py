@@ -96,6 +96,7 @@ Examples:
   flatfree run paper-imu --track Spa    natural outputs, lateral F from the accelerometers
   flatfree run my_scenario.toml --seed 3 --out run1
   flatfree run --recording LVMS_23_01_04_B --json
+  flatfree run paper-imu --set reference.j_lat_max=15 --set sensors.y.markov_order=2
   flatfree tracks
   flatfree scenario new my_scenario.toml
 
@@ -408,30 +409,34 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
                    track: str | None = None, recording: str | None = None,
                    vehicle: str | None = None, cf_scale: float | None = None,
                    cr_scale: float | None = None, noise: bool | None = None,
-                   seed: int | None = None, duration_s: float | None = None):
+                   seed: int | None = None, duration_s: float | None = None,
+                   settings: Sequence[str] = ()):
     """The scenario of ``flatfree run``: the base (file, name or default) with the options.
 
     ``--controller`` different from the scenario's drops the scenario's controller settings
     (they belong to the other controller); ``--cf-scale``/``--cr-scale`` go into the
     controller settings (only the flatness controller takes them: another one refuses them
-    when the run starts). Raises :class:`InputError` (exit 2) on bad input.
+    when the run starts). ``settings`` (``--set FIELD=VALUE``, repeatable) are applied last,
+    in order, by :func:`flatfree.scenario.scenario_with_settings`: a ``--set`` wins over the
+    options (``--seed 1 --set seed=2`` runs seed 2). Raises :class:`InputError` (exit 2) on
+    bad input.
     """
-    from flatfree.scenario import Scenario
+    from flatfree.scenario import Scenario, scenario_with_settings
 
     if track is not None and recording is not None:
         raise _fail("give --track or --recording, not both")
     sc: Scenario = _load_base(spec, recording)
     try:
         changes: dict[str, Any] = {}
-        settings = dict(sc.controller_settings)
+        ctrl_settings = dict(sc.controller_settings)
         if controller is not None and controller != sc.controller:
             changes["controller"] = controller
-            settings = {}
+            ctrl_settings = {}
         if cf_scale is not None:
-            settings["cf_scale"] = cf_scale
+            ctrl_settings["cf_scale"] = cf_scale
         if cr_scale is not None:
-            settings["cr_scale"] = cr_scale
-        changes["controller_settings"] = settings
+            ctrl_settings["cr_scale"] = cr_scale
+        changes["controller_settings"] = ctrl_settings
         if track is not None:
             changes["reference"] = dataclasses.replace(sc.reference, track=track,
                                                        recording=None)
@@ -443,7 +448,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             natural = _scenarios_module().natural_settings
             if changes.get("controller", sc.controller) == "mfc-natural" and vehicle != sc.vehicle:
                 for imu in (False, True):
-                    if settings == natural(sc.vehicle, imu=imu):
+                    if ctrl_settings == natural(sc.vehicle, imu=imu):
                         # the base's settings are its car's tuning: take the new car's
                         # (alpha_lat), with the same estimator
                         changes["controller_settings"] = natural(vehicle, imu=imu)
@@ -453,7 +458,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             changes["seed"] = seed
         if duration_s is not None:
             changes["timing"] = dataclasses.replace(sc.timing, duration_s=duration_s)
-        return sc.with_(**changes)
+        return scenario_with_settings(sc.with_(**changes), list(settings))
     except ValueError as exc:
         raise _fail(str(exc)) from None
 
@@ -554,6 +559,16 @@ Examples:
   flatfree run paper-mismatch                    a named scenario
   flatfree run --recording LVMS_23_01_04_B --json     adds steer_rms_vs_recorded_deg
   flatfree run --track my_track.csv --duration 30
+  flatfree run paper-imu --set reference.j_lat_max=15 --set sensors.y.markov_order=2
+  flatfree run --set controller_settings.alpha_lat=40 --set timing.control_dt_s=0.002
+
+\b
+--set FIELD=VALUE reaches any field of a scenario by its dotted path in the TOML layout of
+`flatfree scenario new` (reference.*, timing.*, sensors.CHANNEL.*, actuators.*, road.mu,
+road.bank_deg, controller_settings.*, vehicle_overrides.*, seed, ...); VALUE is a TOML value
+(15, 1.5e-3, inf, true, "Monza", [1, 2]) or else a bare string (reference.track=Monza). The
+--set options are applied after the other options, so they win. Faults ([[fault]]) and
+friction patches ([[road.patch]]) are set in a TOML file.
 
 \b
 Named scenarios: paper, paper-mfc-flat, paper-flatness, paper-mismatch, recorded, and their
@@ -582,16 +597,20 @@ non-finite state), 2 bad usage or input.""")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               help="Write scenario.toml, trajectory.parquet, metrics.json, figures and "
                    "report.html into this folder.")
+@click.option("--set", "settings", multiple=True, metavar="FIELD=VALUE",
+              help="Set a scenario field by its dotted path, e.g. reference.j_lat_max=15, "
+                   "sensors.y.markov_order=2, controller_settings.alpha_lat=40 (repeatable; "
+                   "applied after the other options, so it wins over them).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print exactly one JSON object (metrics and settings) on stdout.")
 def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale, noise, seed,
-        duration_s, out_dir, as_json) -> None:
+        duration_s, settings, out_dir, as_json) -> None:
     """Run one closed-loop scenario and print its metrics.
 
     SCENARIO is a TOML file (see `flatfree scenario new`) or a named scenario (paper,
     paper-mfc-flat, paper-flatness, paper-mismatch, recorded, paper-imu, recorded-imu, each
     also with -noise-free); without it the paper's scenario (or, with --recording, the
-    recorded one) is the base, and the options change it.
+    recorded one) is the base, and the options change it; --set changes any field, last.
     """
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult, format_table
@@ -600,7 +619,8 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         controller = controller.lower()
     sc = build_scenario(scenario_file, controller=controller, track=track,
                         recording=recording, vehicle=vehicle, cf_scale=cf_scale,
-                        cr_scale=cr_scale, noise=noise, seed=seed, duration_s=duration_s)
+                        cr_scale=cr_scale, noise=noise, seed=seed, duration_s=duration_s,
+                        settings=settings)
     if noise and not any(c.noise_std > 0 for c in sc.sensors.channels.values()):
         _err(f"note: --noise has no effect: scenario {sc.name!r} gives no sensor a noise_std")
     tr = _simulate(sc)
@@ -730,12 +750,71 @@ def _try_run(label: str, sc, warned: list[str]):
     return RunResult(label=label, scenario=sc, trajectory=tr, metrics=m)
 
 
+#: Fields ``demo --set`` refuses: they differ between the demo's runs (names, three
+#: controllers and their settings, two cars, a track and a recording), so one value for all
+#: makes no sense.
+DEMO_FIXED_FIELDS = ("name", "description", "controller", "controller_settings", "vehicle",
+                     "vehicle_overrides", "reference.track", "reference.recording")
+
+
+def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
+                rec_duration_s: float | None, no_recorded: bool, noise: bool,
+                settings: Sequence[str] = ()) -> list[tuple[str, str, Any]]:
+    """The demo's runs as (group, label, scenario), each changed by ``settings`` (``--set``).
+
+    Raises :class:`InputError` (exit 2) on a bad setting or one of
+    :data:`DEMO_FIXED_FIELDS`.
+    """
+    from flatfree.scenario import scenario_with_settings
+
+    for s in settings:
+        path = s.partition("=")[0].strip()
+        fixed = next((f for f in DEMO_FIXED_FIELDS if path == f or path.startswith(f + ".")),
+                     None)
+        if fixed is not None:
+            raise _fail(f"--set {s}: demo runs several controllers, cars and references, so "
+                        f"{fixed} cannot be set for all of them; use `flatfree run` (or demo "
+                        "--track for the track)")
+    sfx = "" if noise else "-noise-free"
+    kw: dict[str, Any] = {"seed": seed, "duration_s": duration_s}
+    if track is not None:
+        kw["track"] = track
+    tasks: list[tuple[str, str, Any]] = []  # (group, label, scenario)
+    for ctrl, name in PAPER_RUNS:
+        tasks.append(("paper", ctrl, _named(name + sfx, **kw)))
+    tasks.append(("paper", IMU_LABEL, _named("paper-imu" + sfx, **kw)))
+    tasks.append(("mismatch", "flatness, 0.3 Cf, 0.3 Cr", _named("paper-mismatch" + sfx, **kw)))
+    if not no_recorded:
+        rec = _named("recorded" + sfx, seed=seed, duration_s=rec_duration_s)
+        for ctrl in ("mfc-flat", "mfc-natural"):
+            tasks.append(("recorded", ctrl, rec.with_(controller=ctrl, controller_settings={})
+                          if ctrl != rec.controller else rec))
+        tasks.append(("recorded", IMU_LABEL,
+                      _named("recorded-imu" + sfx, seed=seed, duration_s=rec_duration_s)))
+    if not settings:
+        return tasks
+    out = []
+    for group, label, sc in tasks:
+        try:
+            out.append((group, label, scenario_with_settings(sc, list(settings))))
+        except ValueError as exc:
+            raise _fail(f"{group}, {label}: {exc}") from None
+    return out
+
+
 @main.command(context_settings=CONTEXT, epilog="""\b
 Examples:
   flatfree demo                              writes flatfree-out/report.html
   flatfree demo --out /tmp/paper --no-noise
   flatfree demo --track Monza
   flatfree demo --track Norisring --duration 20 --recording-duration 20   a quick look
+  flatfree demo --set timing.control_dt_s=0.002 --set actuators.steer_tau_s=0.05
+
+\b
+--set FIELD=VALUE (as in `flatfree run`) changes every run of the demo, after the other
+options; the fields that differ between its runs (name, description, controller,
+controller_settings, vehicle, vehicle_overrides, reference.track, reference.recording) are
+refused.
 
 \b
 Exit codes: 0 every run was made (a run that leaves the track is a result, shown in the
@@ -753,9 +832,12 @@ still written, with the reason).""")
 @click.option("--noise/--no-noise", default=True, show_default=True, help="Sensor noise.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the sensor noise.")
+@click.option("--set", "settings", multiple=True, metavar="FIELD=VALUE",
+              help="Set a scenario field of every run, e.g. timing.control_dt_s=0.002 "
+                   "(repeatable; applied after the other options).")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: when stderr is a terminal).")
-def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, seed,
+def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, seed, settings,
          progress) -> None:
     """Reproduce the paper: its three controllers, figures 2-6, a table, an HTML report.
 
@@ -772,22 +854,9 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     from flatfree import plotting as pl
     from flatfree.report import format_table, write_report
 
-    sfx = "" if noise else "-noise-free"
-    kw: dict[str, Any] = {"seed": seed, "duration_s": duration_s}
-    if track is not None:
-        kw["track"] = track
-    tasks: list[tuple[str, str, Any]] = []  # (group, label, scenario)
-    for ctrl, name in PAPER_RUNS:
-        tasks.append(("paper", ctrl, _named(name + sfx, **kw)))
-    tasks.append(("paper", IMU_LABEL, _named("paper-imu" + sfx, **kw)))
-    tasks.append(("mismatch", "flatness, 0.3 Cf, 0.3 Cr", _named("paper-mismatch" + sfx, **kw)))
-    if not no_recorded:
-        rec = _named("recorded" + sfx, seed=seed, duration_s=rec_duration_s)
-        for ctrl in ("mfc-flat", "mfc-natural"):
-            tasks.append(("recorded", ctrl, rec.with_(controller=ctrl, controller_settings={})
-                          if ctrl != rec.controller else rec))
-        tasks.append(("recorded", IMU_LABEL,
-                      _named("recorded-imu" + sfx, seed=seed, duration_s=rec_duration_s)))
+    tasks = _demo_tasks(track=track, seed=seed, duration_s=duration_s,
+                        rec_duration_s=rec_duration_s, no_recorded=no_recorded, noise=noise,
+                        settings=settings)
     # the desired path (and a check of the track name before the long part)
     try:
         ref_xy = _reference_xy(tasks[0][2])
@@ -821,6 +890,9 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     paper_runs = {r.label: r.trajectory for r in results["paper"] if r.trajectory is not None}
     figs: list[tuple[str, Path]] = []
     notes: list[str] = []
+    if settings:
+        notes.append("every run changed from the paper's scenarios by --set "
+                     + ", --set ".join(settings))
     # Figure 2: flatness nominal vs mismatch
     # the paper group has one flatness run (PAPER_RUNS): the nominal curve
     flat_nominal = next((r.trajectory for r in results["paper"]

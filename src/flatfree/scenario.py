@@ -66,15 +66,22 @@ TOML layout (every key optional except where a section says so; units in the key
     duration_s = 0.05
 
 A malformed file raises ``ValueError`` naming the file, the line and the field.
+
+Any field can also be changed by a *setting* ``"path=value"`` (:func:`scenario_with_settings`,
+:meth:`Scenario.with_settings`, ``flatfree run --set``): the path is the field's dotted path in
+this layout (``reference.j_lat_max``, ``sensors.y.markov_order``, ``controller_settings.kp_lat``)
+and the value a TOML value (``15``, ``1.5e-3``, ``inf``, ``true``, ``"Monza"``, ``[1, 2]``), or a
+bare string when it is not one (``reference.track=Monza``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -96,6 +103,7 @@ __all__ = [
     "load_scenario",
     "scenario_from_toml",
     "scenario_to_toml",
+    "scenario_with_settings",
 ]
 
 #: Controller names (the CLI's spelling).
@@ -143,7 +151,9 @@ class ReferenceSpec:
             )
         _choice("reference.line", self.line, LINES)
         finite("reference.lateral_offset_m", self.lateral_offset_m, "m")
-        if int(self.laps) != self.laps or self.laps < 1:
+        if (isinstance(self.laps, bool) or not isinstance(self.laps, numbers.Real)
+                or not math.isfinite(self.laps) or int(self.laps) != self.laps
+                or self.laps < 1):
             raise ValueError(f"reference.laps = {self.laps!r}: must be an integer >= 1")
         if not isinstance(self.drive_limit, bool):
             raise ValueError(f"reference.drive_limit = {self.drive_limit!r}: must be true or "
@@ -329,6 +339,14 @@ class Scenario:
         """A copy with top-level fields replaced (validated)."""
         return dataclasses.replace(self, **changes)
 
+    def with_settings(self, settings: Sequence[str] | Mapping[str, Any]) -> Scenario:
+        """A copy with fields at any depth changed by settings ``"path=value"``.
+
+        ``sc.with_settings(["reference.j_lat_max=15", "sensors.y.markov_order=2"])``; see
+        :func:`scenario_with_settings`.
+        """
+        return scenario_with_settings(self, settings)
+
     @property
     def effective_sensors(self) -> SensorSuite:
         """The sensors as used: noise-free when ``noise`` is false."""
@@ -403,6 +421,15 @@ def _line_of(text: str, table: str | None, key: str | None) -> int | None:
     return None
 
 
+class _FieldError(ValueError):
+    """A validation error of a scenario document: the message, and the field it names."""
+
+    def __init__(self, message: str, field: str | None, detail: str) -> None:
+        super().__init__(message)
+        self.field = field  # dotted path (None: no field found in the message)
+        self.detail = detail  # "field ...: ..." without the source and the line
+
+
 class _Where:
     """Turns a validation error into one that names the file, the line and the field."""
 
@@ -414,8 +441,16 @@ class _Where:
         line = _line_of(self.text, table, key) or _line_of(self.text, table, None)
         fld = key if table is None else f"{table}.{key}" if key else table
         at = f", line {line}" if line else ""
-        msg = str(exc)
-        return ValueError(f"{self.source}{at}: field {fld}: {msg}")
+        detail = f"field {fld}: {exc}"
+        return _FieldError(f"{self.source}{at}: {detail}", fld, detail)
+
+    def tables(self, values: Any, name: str) -> list:
+        """The tables of an array of tables (``[[fault]]``, ``[[road.patch]]``)."""
+        if not isinstance(values, list) or not all(isinstance(v, dict) for v in values):
+            table, _, key = name.rpartition(".")
+            raise self.error(ValueError(f"expected an array of tables [[{name}]]"),
+                             table or None, key)
+        return values
 
     def build(self, cls, table: str, values: Mapping[str, Any], prefix: str | None = None):
         prefix = prefix or table
@@ -463,7 +498,8 @@ def scenario_from_toml(text: str, source: str = "<scenario>") -> Scenario:
     kwargs: dict[str, Any] = {k: doc[k] for k in _TOP_KEYS if k in doc}
     kwargs["vehicle_overrides"] = table("vehicle_overrides")
     kwargs["controller_settings"] = table("controller_settings")
-    kwargs["reference"] = where.build(ReferenceSpec, "reference", _reference_values(doc))
+    kwargs["reference"] = where.build(ReferenceSpec, "reference",
+                                      _reference_values(table("reference")))
     kwargs["timing"] = where.build(Timing, "timing", table("timing"))
     channels = {}
     for ch, values in table("sensors").items():
@@ -473,14 +509,15 @@ def scenario_from_toml(text: str, source: str = "<scenario>") -> Scenario:
     kwargs["sensors"] = SensorSuite(channels)
     kwargs["actuators"] = where.build(ActuatorSpec, "actuators", table("actuators"))
     road = dict(table("road"))
-    patches = road.pop("patch", [])
+    if "patches" in road:  # the field's name in RoadSpec, not in the file
+        raise where.error(ValueError("unknown key; friction patches are [[road.patch]] "
+                                     "tables"), "road", "patches")
+    patches = where.tables(road.pop("patch", []), "road.patch")
     kwargs["road"] = where.build(RoadSpec, "road", {
         **road,
         "patches": tuple(where.build(FrictionPatch, "road.patch", p) for p in patches),
     })
-    faults = doc.get("fault", [])
-    if not isinstance(faults, list):
-        raise where.error(ValueError("expected an array of tables [[fault]]"), None, "fault")
+    faults = where.tables(doc.get("fault", []), "fault")
     kwargs["faults"] = tuple(where.build(Fault, "fault", f) for f in faults)
     try:
         return Scenario(**kwargs)
@@ -489,8 +526,8 @@ def scenario_from_toml(text: str, source: str = "<scenario>") -> Scenario:
         raise where.error(exc, None, key) from None
 
 
-def _reference_values(doc: dict) -> dict:
-    ref = dict(doc.get("reference", {}))
+def _reference_values(reference: dict) -> dict:
+    ref = dict(reference)
     if "recording" in ref and "track" not in ref:
         ref["track"] = None  # a recording replaces the default track
     return ref
@@ -505,3 +542,250 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ValueError(f"scenario file not found: {path}") from None
     return scenario_from_toml(text, source=str(path))
 
+
+# ------------------------------------------------------------------------------------------
+# settings "path=value"
+# ------------------------------------------------------------------------------------------
+#: Tables a setting may create when the scenario has none yet (their keys are free: checked
+#: by the controller, the vehicle, the sensor channel); ``sensors.<channel>`` too.
+_FREE_TABLES = (("controller_settings",), ("vehicle_overrides",), ("sensors",))
+#: Arrays of tables: several entries, which one path cannot address.
+_TABLE_ARRAYS = (("fault",), ("road", "patch"))
+#: The dataclass whose fields a table holds (the annotations of its fields type the values).
+_SECTIONS: dict[str, type] = {"reference": ReferenceSpec, "timing": Timing,
+                              "actuators": ActuatorSpec, "road": RoadSpec}
+
+
+@dataclass(frozen=True, slots=True)
+class _Setting:
+    label: str  # as the user wrote it: "path=value" (or path=repr(value) from a mapping)
+    path: tuple[str, ...]
+    value: Any
+    text: str | None  # the value's text of a "path=value" string (None: from a mapping)
+
+
+def _parse_value(text: str) -> Any:
+    """A TOML value (``15``, ``inf``, ``true``, ``"a"``, ``[1, 2]``), else the text itself."""
+    try:
+        doc = tomllib.loads(f"v = {text}")
+    except tomllib.TOMLDecodeError:
+        return text
+    return doc["v"] if set(doc) == {"v"} else text
+
+
+def _split_path(path: str, label: str) -> tuple[str, ...]:
+    parts = tuple(p.strip() for p in path.split("."))
+    if not all(parts):
+        raise ValueError(f"setting {label}: the path {path.strip()!r} has an empty part; "
+                         "expected a dotted path like reference.j_lat_max")
+    return parts
+
+
+def _settings(settings: Sequence[str] | Mapping[str, Any]) -> list[_Setting]:
+    if isinstance(settings, Mapping):
+        return [_Setting(f"{k}={v!r}", _split_path(str(k), f"{k}={v!r}"), v, None)
+                for k, v in settings.items()]
+    if isinstance(settings, (str, bytes)) or not isinstance(settings, Sequence):
+        raise TypeError(f"settings = {settings!r}: expected a sequence of 'path=value' "
+                        "strings or a mapping {path: value}")
+    out = []
+    for s in settings:
+        if not isinstance(s, str):
+            raise TypeError(f"setting {s!r}: expected a string 'path=value'")
+        path, eq, text = s.partition("=")
+        if not eq:
+            raise ValueError(f"setting {s}: expected FIELD=VALUE, e.g. reference.j_lat_max=15")
+        text = text.strip()
+        out.append(_Setting(s, _split_path(path, s), _parse_value(text), text))
+    return out
+
+
+def _annotation(path: tuple[str, ...]) -> str:
+    """The annotation of the dataclass field at ``path`` ("" for a free key or no field)."""
+    if len(path) == 1:
+        cls, name = Scenario, path[0]
+    elif len(path) == 2 and path[0] in _SECTIONS:
+        cls, name = _SECTIONS[path[0]], path[1]
+    elif len(path) == 3 and path[0] == "sensors":
+        cls, name = SensorChannel, path[2]
+    else:
+        return ""
+    return str(next((f.type for f in dataclasses.fields(cls) if f.name == name), ""))
+
+
+def _typed(st: _Setting) -> Any:
+    """The setting's value for its field: a string field takes the text as written (``name=2024``
+    is the name "2024"), a number field refuses a string or a boolean and stores an integer as
+    a float where the field is a float."""
+    dotted = ".".join(st.path)
+    value, ann = st.value, _annotation(st.path)
+    if value is None:
+        return None
+    if ann in ("str", "str | None") and st.text is not None:
+        return st.text if not isinstance(value, str) else value
+    if ann in ("float", "float | None", "int"):
+        if isinstance(value, (str, bool)) or not isinstance(value, numbers.Real):
+            raise ValueError(f"setting {st.label}: {dotted} = {value!r}: expected a number")
+        if ann != "int" and isinstance(value, int):
+            return float(value)
+    return value
+
+
+def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -> None:
+    """Set ``st`` in the scenario document ``doc`` (in place)."""
+    path = st.path
+    for arr in _TABLE_ARRAYS:
+        if path[:len(arr)] == arr:
+            name = ".".join(arr)
+            raise ValueError(f"setting {st.label}: {name} is an array of tables ([[{name}]]), "
+                             "which a setting cannot address: set it in a TOML file "
+                             "(flatfree scenario new)")
+    if path[0] == "sensors" and len(path) > 1 and path[1] not in doc.get("sensors", {}):
+        from flatfree.simulation import SENSOR_CHANNELS  # late: the heavy part
+
+        if path[1] not in SENSOR_CHANNELS:  # a new channel the loop would never read
+            raise ValueError(f"setting {st.label}: sensors.{path[1]}: {path[1]!r} is not a "
+                             f"measured channel; channels: {', '.join(SENSOR_CHANNELS)}")
+    node = doc
+    for i, key in enumerate(path[:-1]):
+        prefix = path[:i + 1]
+        dotted = ".".join(prefix)
+        if key not in node:
+            if i == 0 and prefix not in _FREE_TABLES:
+                valid = ", ".join(t for t in _TABLES if t != "fault")
+                raise ValueError(f"setting {st.label}: {dotted} is not a table of a scenario; "
+                                 f"tables: {valid}")
+            if i > 0 and not (prefix[0] == "sensors" and i == 1):
+                raise ValueError(f"setting {st.label}: {'.'.join(prefix[:-1])} has no table "
+                                 f"{key!r}")
+            node[key] = {}
+        elif not isinstance(node[key], dict):
+            raise ValueError(f"setting {st.label}: {dotted} = {node[key]!r} is not a table, "
+                             f"so it has no field {path[i + 1]!r}")
+        node = node[key]
+    key, dotted = path[-1], ".".join(path)
+    value = _typed(st)
+    if isinstance(node.get(key), dict) and not isinstance(value, dict):
+        raise ValueError(f"setting {st.label}: {dotted} is a table: set one of its fields "
+                         f"({dotted}.FIELD=VALUE) or give an inline table {{...}}")
+    if value is None:
+        node.pop(key, None)  # back to the default (a mapping's None; TOML has no null)
+    else:
+        try:
+            import tomli_w
+
+            tomli_w.dumps({"v": value})
+        except (TypeError, ValueError):
+            raise ValueError(f"setting {st.label}: {dotted} = {value!r}: not a TOML value "
+                             "(number, boolean, string, array or table)") from None
+        node[key] = value
+    # a track replaces the recording and a recording the track (as --track, --recording do),
+    # unless both are set
+    other = {("reference", "track"): "recording", ("reference", "recording"): "track"}
+    if path in other and ("reference", other[path]) not in explicit:
+        node.pop(other[path], None)
+
+
+def _culprits(items: list[_Setting], fld: str | None) -> list[_Setting]:
+    """The settings a validation error of field ``fld`` is about (all when unclear)."""
+    if fld:
+        f = tuple(fld.split("."))
+        hit = [s for s in items if f[:len(s.path)] == s.path or s.path[:len(f)] == f]
+        if not hit:  # e.g. timing.control_dt_s no longer a multiple of a new plant_dt_s
+            hit = [s for s in items if s.path[:len(f) - 1] == f[:-1] and len(f) > 1]
+        if hit:
+            return hit
+    return items
+
+
+def scenario_with_settings(sc: Scenario,
+                           settings: Sequence[str] | Mapping[str, Any]) -> Scenario:
+    """A copy of ``sc`` with fields at any depth changed by settings ``"path=value"``.
+
+    Parameters
+    ----------
+    sc : Scenario
+        The scenario to change.
+    settings : sequence of str, or mapping
+        Each a string ``"path=value"`` or, from a mapping, ``{path: value}``. ``path`` is the
+        field's dotted path in the scenario's TOML layout (module docstring): ``seed``,
+        ``reference.j_lat_max``, ``sensors.y.noise_std``, ``controller_settings.alpha_lat``,
+        ``vehicle_overrides.mass``, ``road.mu``. In a string the value is read as a TOML
+        value (``15``, ``1.5e-3``, ``inf``, ``true``, ``"Monza"``, ``[[0, 0], [80, -9.2]]``,
+        ``{noise_std = 0.1}``) or, when it is not one, taken as a bare string
+        (``reference.track=Monza``); a string field takes the text as written (``name=2024``).
+        A mapping's values are taken as they are (``None``: the field's default). Applied in
+        order (a later setting of the same path wins), then validated together.
+
+    Returns
+    -------
+    Scenario
+        The changed scenario, validated as :func:`scenario_from_toml` validates a file.
+
+    Notes
+    -----
+    Only the tables that may be absent are created (``controller_settings``,
+    ``vehicle_overrides``, ``sensors.<channel>``: a new channel starts exact). Setting
+    ``reference.track`` drops the scenario's recording and ``reference.recording`` its
+    track, as ``flatfree run --track`` / ``--recording`` do (setting both is an error). The
+    arrays of tables ``[[fault]]`` and ``[[road.patch]]`` cannot be addressed by a path: set
+    them in a TOML file. An integer given to a float field is stored as a float.
+
+    Raises
+    ------
+    ValueError
+        A malformed setting (no ``=``, an empty path part), a path into a value that is not a
+        table or into an array of tables, a value of the wrong type, or any validation error
+        of the resulting scenario (NaN is refused wherever a number is checked): the message
+        names the setting as written, the field and the value.
+    """
+    import tomli_w
+
+    items = _settings(settings)
+    if not items:
+        return sc
+    explicit = {s.path for s in items if s.value is not None}
+    both = [s for s in items if s.path in (("reference", "track"), ("reference", "recording"))
+            and s.value is not None]
+    if {s.path for s in both} == {("reference", "track"), ("reference", "recording")}:
+        raise ValueError(f"settings {', '.join(s.label for s in both)}: give one of "
+                         "reference.track and reference.recording, not both")
+    doc = tomllib.loads(scenario_to_toml(sc))
+    for st in items:
+        _assign(doc, st, explicit)
+    text = tomli_w.dumps(doc)
+    try:
+        out = scenario_from_toml(text, source="settings")
+    except _FieldError as exc:
+        raise ValueError(f"{_labels(_culprits(items, exc.field))}: {exc.detail}") from None
+    _check_parts(out, items)
+    return out
+
+
+def _labels(items: list[_Setting]) -> str:
+    return f"setting{'s' if len(items) > 1 else ''} {', '.join(s.label for s in items)}"
+
+
+def _check_parts(sc: Scenario, items: list[_Setting]) -> None:
+    """Check the controller's settings and the vehicle when a setting changed them (a scenario
+    leaves these to the run; here the error can name the setting)."""
+    ctrl = [s for s in items if s.path[0] in ("controller", "controller_settings")]
+    if ctrl:
+        from flatfree.controllers.vehicle import settings_from_mapping
+
+        try:
+            settings_from_mapping(sc.controller, sc.controller_settings)
+        except (TypeError, ValueError, OverflowError) as exc:
+            hint = ("; the scenario's controller_settings belong to its controller: also set "
+                    "controller_settings={} to start from the new one's defaults"
+                    if any(s.path == ("controller",) for s in ctrl) else "")
+            raise ValueError(f"{_labels(ctrl)}: controller {sc.controller}: {exc}{hint}"
+                             ) from None
+    veh = [s for s in items if s.path[0] in ("vehicle", "vehicle_overrides")]
+    if veh:
+        from flatfree.vehicles import load_vehicle
+
+        try:
+            load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides))
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ValueError(f"{_labels(veh)}: vehicle {sc.vehicle}: {exc}") from None
