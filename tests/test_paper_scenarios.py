@@ -3,10 +3,13 @@
 Each case of ``paper_scenario_bounds.json`` runs a named scenario (flatfree.scenarios) on a
 bundled track for a whole lap and checks the completion status and the metrics against the
 bounds recorded there. How the bounds were made (also in the JSON's ``_about``): each value is the
-measured metric of the seeded run (2026-11-22, this code) times ``1 + rel_tol`` (JSON), a
-headroom for floating-point differences across platforms/numba versions and for small changes of
-the plant (the tyre kernels are being vectorised). The runs are deterministic: a regression
-beyond the headroom is a real change of behaviour to review. Where the issue's targets are met,
+measured metric of the seeded run (2026-11-22, this code). A noisy run may rise to ``1 +
+rel_tol`` times it (25 %: the noisy laps are chaotic, the steer at its rate limit, so
+floating-point differences across platforms/numba versions move them) and not fall below half
+of it (a metric gone wrong); a noise-free run, which is not chaotic, must stay within
+``rel_tol_noise_free`` (2 %) of it on both sides; a run that leaves the track must leave within
+``rel_tol`` of the recorded time. The runs are deterministic: a move beyond these is a real
+change of behaviour to review. Where the issue's targets are met,
 the target itself is asserted too (``target`` entries). A case's ``settings`` override the
 scenario's controller settings (``{"path_correction": false}``: the paper's velocity-only design,
 which leaves the track).
@@ -60,16 +63,21 @@ def test_lap_within_reviewed_bounds(case):
         else:  # a whole lap: the car reached the end of the reference path
             assert tr["s"][-1] > 0.98 * float(case["lap_length_m"])
     else:
-        t_max = case["status_time_s"] * (1.0 + _BOUNDS["rel_tol"])
-        assert tr.status_time is not None and tr.status_time <= t_max
-    for name in _METRICS:
-        if name in case:
-            bound = case[name] * (1.0 + _BOUNDS["rel_tol"])
-            assert getattr(m, name) <= bound, (name, getattr(m, name), bound)
-    if "course_error_max_deg" in case:
-        after = tr.time >= tr.time[0] + sc.timing.startup_s
-        course = float(np.degrees(np.max(np.abs(tr["course_error"][after]))))
-        assert course <= case["course_error_max_deg"] * (1.0 + _BOUNDS["rel_tol"]), course
+        assert tr.status_time is not None
+        assert tr.status_time == pytest.approx(case["status_time_s"], rel=_BOUNDS["rel_tol"])
+    measured = {name: getattr(m, name) for name in _METRICS}
+    after = tr.time >= tr.time[0] + sc.timing.startup_s
+    measured["course_error_max_deg"] = float(np.degrees(np.max(np.abs(
+        tr["course_error"][after]))))
+    for name, value in measured.items():
+        if name not in case:
+            continue
+        if case["scenario"].endswith("-noise-free"):  # deterministic, not chaotic: both sides
+            tol = _BOUNDS["rel_tol_noise_free"]
+            assert value == pytest.approx(case[name], rel=tol), (name, value, case[name])
+        else:  # chaotic: a regression above the headroom, a broken metric below half
+            lo, hi = 0.5 * case[name], case[name] * (1.0 + _BOUNDS["rel_tol"])
+            assert lo <= value <= hi, (name, value, lo, hi)
     for name, target in case.get("target", {}).items():
         assert getattr(m, name) <= target, (name, getattr(m, name), target)
     assert all(np.all(np.isfinite(tr[k])) for k in ("x", "y", "vx", "steer", "torque"))
@@ -244,3 +252,23 @@ def test_path_correction_settings_are_validated():
             cls(outer_wn=0.0)
         with pytest.raises(ValueError, match="outer_integral"):
             cls(outer_integral="yes")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("scenario", "at_least"), [("paper", 18), ("paper-imu", 30)])
+def test_completion_over_seeds_on_spa(scenario, at_least):
+    """Spa, the bundled track where the algebraic natural-output design is least robust, over
+    noise seeds 0-29. Measured (2026-11-22): ``paper`` completes 23 of 30 (seeds 5, 17, 23
+    leave at Eau Rouge, 6, 10, 15, 25 at the chicane; benchmarks/README.md "Closed loop"), the
+    guard is that rate less two binomial standard deviations (sqrt(30 p (1 - p)) = 2.3 laps),
+    as the laps are chaotic and may change seed by seed on another platform; ``paper-imu``
+    completes all 30 (and every seed of seeds 0-29 on the other bundled tracks, measured), and
+    each completed lap stays within the 2x target of 4 cm."""
+    done = 0
+    for seed in range(30):
+        m = compute_metrics(simulate(named_scenario(scenario, track="Spa", seed=seed)))
+        if m.status == "completed":
+            done += 1
+            if scenario == "paper-imu":
+                assert m.lateral_error_max_m <= 0.04, (seed, m.lateral_error_max_m)
+    assert done >= at_least, done

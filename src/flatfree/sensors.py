@@ -232,7 +232,10 @@ def sense_step(k, truth, table, noise, history, held, out):
     """Measure the true values ``truth`` at controller step ``k`` into ``out``.
 
     Mutates ``history`` (ring buffer of true values) and ``held`` (sample-and-hold).
-    A non-finite true value propagates to its measurement (a fault the controller must handle).
+    A non-finite true value propagates to its measurement (a fault the controller must handle);
+    a channel whose held sample is not finite (none yet, or a non-finite true value at its
+    last sample instant) is not held: it samples again at the next step, off its sample
+    instants.
     Allocation-free, compiled without reference counting (``flatfree._vecmath.no_refcount``).
     """
     n = truth.shape[0]
@@ -250,6 +253,6 @@ def sense_step(k, truth, table, noise, history, held, out):
         else:
             delayed = history[i, 0]  # not enough history yet: the first value
         period = int(table[i, 2])
-        if period == 1 or k % period == 0 or math.isnan(held[i]):
+        if period == 1 or k % period == 0 or not math.isfinite(held[i]):
             held[i] = delayed + table[i, 1] + table[i, 0] * noise[k, i]
         out[i] = held[i]

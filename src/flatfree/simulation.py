@@ -449,6 +449,10 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                 x[i] = xn[i]
     else:
         k = n_steps
+        for i in range(n):  # the last plant step's result, which no step above looked at
+            if not math.isfinite(x[i]):
+                status = 2
+                break
     ls[_LS_SEG] = seg
     ls[_LS_SEG_M] = seg_m
     ls[_LS_S_PREV] = s_prev

@@ -66,7 +66,9 @@ class Trajectory:
         if t.ndim != 1:
             raise ValueError(f"time has shape {t.shape}: expected a 1-D array")
         if t.size > 1 and not np.all(np.diff(t) > 0.0):
-            raise ValueError("time must be strictly increasing")
+            i = int(np.flatnonzero(~(np.diff(t) > 0.0))[0])
+            raise ValueError(f"time must be strictly increasing: time[{i + 1}] = "
+                             f"{float(t[i + 1])!r} s after time[{i}] = {float(t[i])!r} s")
         t.flags.writeable = False
         sig: dict[str, np.ndarray] = {}
         for name, values in self.signals.items():
@@ -82,7 +84,8 @@ class Trajectory:
         if not isinstance(self.status, Status):
             raise ValueError(f"status = {self.status!r}: expected a Status")
         if self.status is Status.COMPLETED and self.status_time is not None:
-            raise ValueError("status_time must be None for a completed run")
+            raise ValueError(f"status_time = {self.status_time!r} s: must be None for a "
+                             "completed run")
         if self.status is not Status.COMPLETED and self.status_time is None:
             raise ValueError(f"status {self.status} needs the status_time at which it happened")
         object.__setattr__(self, "time", t)
