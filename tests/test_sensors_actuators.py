@@ -3,25 +3,30 @@ limits)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
 
-from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
+from flatfree.actuators import V_POWER_MIN, ActuatorParams, actuate_step, actuator_state
 from flatfree.sensors import SensorChannel, SensorSuite, sense_step
 from flatfree.vehicles import load_vehicle
 
 
-def _run_sensors(suite, truth, names, dt=1e-3, seed=0):
-    n = truth.shape[0]
-    cs = suite.compile(names, dt, n, seed)
-    out = np.empty((n, len(names)))
-    row = np.empty(len(names))
-    for k in range(n):
+def _measure(cs, truth):
+    """Run compiled sensors over the rows of ``truth`` (controller steps 0, 1, ...)."""
+    out = np.empty(truth.shape)
+    row = np.empty(truth.shape[1])
+    for k in range(truth.shape[0]):
         sense_step(k, truth[k], cs.table, cs.noise, cs.history, cs.held, row)
         out[k] = row
     return out
+
+
+def _run_sensors(suite, truth, names, dt=1e-3, seed=0):
+    return _measure(suite.compile(names, dt, truth.shape[0], seed), truth)
 
 
 def test_delay_shifts_by_whole_periods_and_rate_holds():
@@ -55,12 +60,109 @@ def test_noise_statistics_bias_and_seeding():
 
 
 def test_unknown_sensor_channel_and_bad_values():
-    with pytest.raises(ValueError, match=r"\['yaw'\] are not measured signals; valid: psi, r"):
+    """Each bad value raises a ValueError naming the field and the value as given."""
+    msg = "sensor channel(s) ['yaw'] are not measured signals; valid: psi, r"
+    with pytest.raises(ValueError, match=re.escape(msg)):
         SensorSuite({"yaw": SensorChannel()}).compile(("psi", "r"), 1e-3, 10, 0)
-    with pytest.raises(ValueError, match="noise_std = -1"):
+    with pytest.raises(ValueError, match=r"^noise_std = -1\.0: must be >= 0$"):
         SensorChannel(noise_std=-1.0)
-    with pytest.raises(ValueError, match="rate_hz = 0.0 Hz"):
+    with pytest.raises(ValueError, match=r"^rate_hz = 0\.0 Hz: must be > 0$"):
         SensorChannel(rate_hz=0.0)
+    with pytest.raises(ValueError, match=r"^delay_s = -0\.001 s: must be >= 0$"):
+        SensorChannel(delay_s=-0.001)
+    with pytest.raises(ValueError, match=r"^bias = nan: must be finite$"):
+        SensorChannel(bias=math.nan)
+
+
+def test_non_finite_truth_propagates_to_its_measurement():
+    """sense_step docstring: a non-finite true value propagates to its measurement. A NaN true
+    value at step 5 is NaN at step 5 through noise and bias, NaN at step 8 (only) on a channel
+    delayed 3 steps; a held channel (sampled at steps 0, 4, 8, ...) keeps its step-4 sample at
+    step 5, measures a NaN (or infinite) true value at its sample instant 8 as such, and does
+    not hold it: it samples again at step 9, then holds that sample to its next instant 12."""
+    n = 14
+    truth = np.tile(np.arange(n, dtype=float)[:, None], (1, 4))
+    truth[5] = math.nan
+    truth[8, 2] = math.nan
+    truth[8, 3] = math.inf
+    suite = SensorSuite({
+        "a": SensorChannel(noise_std=0.1, bias=0.2),
+        "b": SensorChannel(delay_s=0.003),
+        "c": SensorChannel(rate_hz=250.0),
+        "d": SensorChannel(rate_hz=250.0),
+    })
+    out = _run_sensors(suite, truth, ("a", "b", "c", "d"), seed=1)
+    np.testing.assert_array_equal(np.flatnonzero(np.isnan(out[:, 0])), [5])
+    np.testing.assert_array_equal(np.flatnonzero(np.isnan(out[:, 1])), [8])
+    assert out[4, 2] == out[5, 2] == 4.0
+    assert math.isnan(out[8, 2]) and out[8, 3] == math.inf
+    for c in (2, 3):
+        np.testing.assert_array_equal(out[9:, c], [9.0, 9.0, 9.0, 12.0, 12.0])
+
+
+def test_noise_free_keeps_rates_and_delays_and_zeroes_every_error():
+    """SensorSuite.noise_free: no white noise, bias or drift left, the same rates and delays.
+    On a ramp, a channel delayed 3 steps and sampled every 4 measures exactly
+    ramp[max(4 (k // 4) - 3, 0)], one delayed 2 steps exactly ramp[max(k - 2, 0)]."""
+    suite = SensorSuite({
+        "a": SensorChannel(noise_std=0.1, bias=0.5, rate_hz=250.0, delay_s=0.003,
+                           markov_std=0.01, markov_tau_s=1.0, markov_order=2),
+        "b": SensorChannel(noise_std=0.2, bias=-1.0, delay_s=0.002, markov_std=0.01,
+                           markov_tau_s=0.5),
+    })
+    clean = suite.noise_free()
+    assert dict(clean.channels) == {"a": SensorChannel(rate_hz=250.0, delay_s=0.003),
+                                    "b": SensorChannel(delay_s=0.002)}
+    n = 40
+    cs = clean.compile(("a", "b"), 1e-3, n, seed=5)
+    assert np.all(cs.noise == 0.0) and np.all(cs.table[:, 1] == 0.0)
+    k = np.arange(n)
+    out = _measure(cs, np.column_stack([k, k]).astype(float))
+    np.testing.assert_array_equal(out[:, 0], np.maximum(4 * (k // 4) - 3, 0))
+    np.testing.assert_array_equal(out[:, 1], np.maximum(k - 2, 0))
+
+
+def test_delay_and_rate_are_rounded_to_the_nearest_whole_period():
+    """SensorChannel docstring: the delay is rounded to whole controller periods, the sample
+    period rounded and at least 1. At 1 ms: 2.4 ms -> 2 steps, 2.6 ms -> 3, 0.4 ms -> 0;
+    300 Hz (3.33 steps) -> 3, 220 Hz (4.55) -> 5, 1500 Hz (0.67) -> 1, 3000 Hz (0.33, which
+    rounds to 0) -> 1. (Exact halves are not specified, so not checked.)"""
+    delays = {"d24": (0.0024, 2), "d26": (0.0026, 3), "d04": (0.0004, 0)}
+    rates = {"r300": (300.0, 3), "r220": (220.0, 5), "r1500": (1500.0, 1), "r3000": (3000.0, 1)}
+    chans = {**{k: SensorChannel(delay_s=d) for k, (d, _) in delays.items()},
+             **{k: SensorChannel(rate_hz=f) for k, (f, _) in rates.items()}}
+    names = tuple(chans)
+    n = 30
+    cs = SensorSuite(chans).compile(names, 1e-3, n, seed=0)
+    k = np.arange(n)
+    out = _measure(cs, np.tile(k[:, None], (1, len(names))).astype(float))
+    for i, name in enumerate(names):
+        if name in delays:
+            steps = delays[name][1]
+            assert cs.table[i, 3] == steps and cs.table[i, 2] == 1
+            np.testing.assert_array_equal(out[:, i], np.maximum(k - steps, 0), err_msg=name)
+        else:
+            steps = rates[name][1]
+            assert cs.table[i, 2] == steps and cs.table[i, 3] == 0
+            np.testing.assert_array_equal(out[:, i], steps * (k // steps), err_msg=name)
+
+
+def test_reset_clears_the_state_and_a_rerun_is_bit_identical():
+    """CompiledSensors.reset docstring: history and held values cleared (all NaN, as compiled);
+    the same compiled sensors then run a second time give the first run's measurements bit for
+    bit (noise, bias, drift, delay and hold included)."""
+    suite = SensorSuite({
+        "a": SensorChannel(noise_std=0.1, bias=0.2, delay_s=0.004, rate_hz=200.0),
+        "b": SensorChannel(noise_std=0.05, markov_std=0.01, markov_tau_s=0.1),
+    })
+    n = 60
+    truth = np.column_stack([np.sin(0.1 * np.arange(n)), np.cos(0.07 * np.arange(n))])
+    cs = suite.compile(("a", "b"), 1e-3, n, seed=9)
+    first = _measure(cs, truth)
+    assert np.all(np.isfinite(cs.history)) and np.all(np.isfinite(cs.held))  # a used state
+    cs.reset()
+    assert np.all(np.isnan(cs.history)) and np.all(np.isnan(cs.held))
+    np.testing.assert_array_equal(_measure(cs, truth), first)
 
 
 def _act(params, cmds, vx=10.0, dt=1e-3):
@@ -104,6 +206,21 @@ def test_dead_time_and_power_cap():
     assert braking[-1, 0] == -5000.0
 
 
+def test_power_cap_below_v_power_min_and_for_a_negative_drive_speed():
+    """Module docstring, item 4: drive torque <= P R_e / max(|v_drive|, V_POWER_MIN), with
+    V_POWER_MIN = 1 m/s. With P = 1 kW, R_e = 0.3 m: 300 N m for |v| <= 1 m/s (v = 0 included:
+    no division by zero), 150 N m at v = +-2 m/s, 15 N m at -20 m/s (the speed's magnitude);
+    a command under the cap passes; braking is limited by max_brake_torque only."""
+    assert V_POWER_MIN == 1.0
+    low = ActuatorParams(**{**BASE, "max_power": 1000.0})
+    for v, cap in [(0.0, 300.0), (0.5, 300.0), (-0.5, 300.0), (1.0, 300.0), (-1.0, 300.0),
+                   (2.0, 150.0), (-2.0, 150.0), (-20.0, 15.0)]:
+        assert _act(low, [(2000.0, 0.0)], vx=v)[0, 0] == pytest.approx(cap, rel=1e-15), v
+    assert _act(low, [(250.0, 0.0)], vx=0.5)[0, 0] == 250.0
+    assert _act(low, [(-4000.0, 0.0)], vx=0.0)[0, 0] == -4000.0
+    assert _act(low, [(-9000.0, 0.0)], vx=-20.0)[0, 0] == -5000.0
+
+
 def test_non_finite_command_repeats_the_previous_one():
     fast = ActuatorParams(**{**BASE, "max_steer_rate": 100.0})
     out = _act(fast, [(500.0, 0.01), (math.nan, math.nan), (math.inf, 0.01)])
@@ -113,10 +230,22 @@ def test_non_finite_command_repeats_the_previous_one():
 
 
 def test_from_vehicle_takes_the_preset_limits():
+    """Every field of ActuatorParams.from_vehicle: each limit is the preset's field of the same
+    name (the six preset values differ from each other, so a swapped or dropped one fails),
+    lags and delays are 0 unless given; an override replaces only its own field and is
+    validated like any other value."""
     v = load_vehicle("dallara_av21")
+    limits = {name: getattr(v, name) for name in (
+        "max_steer", "max_steer_rate", "max_drive_torque", "max_power", "max_brake_torque",
+        "wheel_radius")}
+    assert len(set(limits.values())) == len(limits)  # all distinct: a mix-up is visible
     a = ActuatorParams.from_vehicle(v, steer_delay=0.04)
-    assert a.max_steer == v.max_steer and a.max_power == v.max_power and a.steer_delay == 0.04
-    with pytest.raises(ValueError, match="torque_tau = -0.1 s"):
+    got = {f.name: getattr(a, f.name) for f in dataclasses.fields(a)}
+    assert got == {**limits, "steer_tau": 0.0, "steer_delay": 0.04, "torque_tau": 0.0,
+                   "torque_delay": 0.0}
+    b = ActuatorParams.from_vehicle(v, max_power=1000.0)
+    assert dataclasses.replace(a, steer_delay=0.0, max_power=1000.0) == b
+    with pytest.raises(ValueError, match=r"^torque_tau = -0\.1 s: must be >= 0$"):
         ActuatorParams.from_vehicle(v, torque_tau=-0.1)
 
 
@@ -193,16 +322,19 @@ def test_second_order_drift_is_smooth_where_the_first_order_one_walks():
 
 
 def test_drift_order_is_one_or_two():
-    with pytest.raises(ValueError, match="markov_order = 3"):
+    """markov_order other than the int 1 or 2 (also True, an int subclass) raises, naming it."""
+    with pytest.raises(ValueError, match=r"^markov_order = 3: must be 1 or 2$"):
         SensorChannel(markov_std=0.01, markov_tau_s=1.0, markov_order=3)
-    with pytest.raises(ValueError, match="markov_order = True"):
+    with pytest.raises(ValueError, match=r"^markov_order = True: must be 1 or 2$"):
         SensorChannel(markov_std=0.01, markov_tau_s=1.0, markov_order=True)
 
 
 def test_drift_needs_its_correlation_time():
-    with pytest.raises(ValueError, match="markov_tau_s"):
+    """A drift without markov_tau_s, or with markov_tau_s <= 0, raises naming the value."""
+    msg = "markov_std = 0.01: a drift needs its correlation time markov_tau_s [s]"
+    with pytest.raises(ValueError, match=re.escape(msg)):
         SensorChannel(markov_std=0.01)
-    with pytest.raises(ValueError, match="markov_tau_s = 0.0 s"):
+    with pytest.raises(ValueError, match=r"^markov_tau_s = 0\.0 s: must be > 0$"):
         SensorChannel(markov_std=0.01, markov_tau_s=0.0)
 
 
@@ -231,5 +363,5 @@ def test_channels_appended_in_a_new_block_keep_the_earlier_noise():
     np.testing.assert_array_equal(got, want)
     one_block = suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7)
     assert not np.array_equal(one_block.noise[:, :6], old.noise)
-    with pytest.raises(ValueError, match="blocks"):
+    with pytest.raises(ValueError, match=re.escape("blocks = (6, 1): sizes >= 0 summing to 8")):
         suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7, blocks=(6, 1))

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
+import re
 
 import numpy as np
 import pytest
 
-from flatfree.metrics import compute_metrics, wrap_angle
+from flatfree.metrics import Metrics, compute_metrics, wrap_angle
 from flatfree.trajectory import Status, Trajectory
 
 UNITS = {"lateral_error": "m", "yaw_error": "rad", "vx": "m/s", "vx_ref": "m/s",
@@ -29,13 +32,24 @@ def _traj(n=2001, dt=1e-3, **kw):
 
 
 def test_metrics_match_closed_forms():
-    m = compute_metrics(_traj(meta={"real_time_factor": 1234.0}), startup_s=1.0)
-    # samples t in [1, 2] s: 1001 samples covering exactly 5 periods plus one end point
-    assert m.lateral_error_max_m == pytest.approx(0.02, rel=1e-6)
-    assert m.lateral_error_rms_m == pytest.approx(0.02 / math.sqrt(2), rel=2e-3)
+    """Exact sums over the samples t >= startup_s (the sample at t = 1 s included).
+
+    t_k = k ms, and t_1000 == 1.0 exactly: the samples k = 1000..2000, 1001 of them. With
+    w t_k = pi k / 100, sin^2 = (1 - cos(2 pi k / 50)) / 2 sums to 500 over k = 1000..1999
+    (the cosine over 20 whole periods sums to 0), and sin^2(20 pi) = 0: the lateral error's
+    mean square is 0.02^2 * 500 / 1001; likewise cos^2 sums to 500 + cos^2(20 pi) = 501, the
+    speed error's mean square 0.3^2 * 501 / 1001. Excluding the sample at 1 s would give
+    500 / 1000 for both, 5e-4 away: the 1e-12 check tells them apart. The peak sample
+    k = 1050 has sin = 1.
+    """
+    tr = _traj(meta={"real_time_factor": 1234.0})
+    assert tr.time[1000] == 1.0
+    m = compute_metrics(tr, startup_s=1.0)
+    assert m.lateral_error_max_m == pytest.approx(0.02, rel=1e-12)
+    assert m.lateral_error_rms_m == pytest.approx(0.02 * math.sqrt(500 / 1001), rel=1e-12)
     assert m.yaw_error_max_deg == pytest.approx(0.5, rel=1e-12)
     assert m.yaw_error_rms_deg == pytest.approx(0.5, rel=1e-12)
-    assert m.speed_error_rms_mps == pytest.approx(0.3 / math.sqrt(2), rel=2e-3)
+    assert m.speed_error_rms_mps == pytest.approx(0.3 * math.sqrt(501 / 1001), rel=1e-12)
     assert m.steer_rate_rms_radps == pytest.approx(0.1, rel=1e-9)
     assert m.steer_rate_max_radps == pytest.approx(0.1, rel=1e-9)
     assert m.torque_rms_nm == pytest.approx(300.0)
@@ -83,20 +97,69 @@ def test_yaw_error_is_wrapped():
 
 
 def test_missing_signal_and_bad_startup():
+    """A missing signal is named; a negative startup_s is named with its value and unit."""
     tr = _traj()
     sig = {k: v for k, v in tr.signals.items() if k != "torque"}
-    with pytest.raises(ValueError, match="'torque'"):
+    msg = "trajectory has no signal 'torque' needed by compute_metrics"
+    with pytest.raises(ValueError, match=re.escape(msg)):
         compute_metrics(Trajectory(time=tr.time, signals=sig, units=UNITS))
-    with pytest.raises(ValueError, match="startup_s = -1.0 s"):
+    with pytest.raises(ValueError, match=r"^startup_s = -1\.0 s: must be >= 0$"):
         compute_metrics(tr, startup_s=-1.0)
 
 
+def test_metrics_are_nan_when_no_sample_follows_the_startup_interval():
+    """compute_metrics docstring: NaN where no sample lies after the start-up interval (a
+    start-up longer than the run, or an empty trajectory); status, duration and the
+    real-time factor are still reported, and to_dict gives None for every NaN. A start-up
+    ending exactly on the last sample keeps that sample (t >= startup_s)."""
+    errors = [f.name for f in dataclasses.fields(Metrics)
+              if f.name not in ("status", "duration_s", "real_time_factor")]
+    m = compute_metrics(_traj(meta={"real_time_factor": 50.0}), startup_s=2.5)
+    assert [name for name in errors if not math.isnan(getattr(m, name))] == []
+    assert (m.status, m.duration_s, m.real_time_factor) == ("completed", 2.0, 50.0)
+    d = m.to_dict()
+    assert all(d[name] is None for name in errors)
+    assert (d["status"], d["duration_s"], d["real_time_factor"]) == ("completed", 2.0, 50.0)
+    empty = Trajectory(time=np.empty(0), signals={k: np.empty(0) for k in UNITS}, units=UNITS)
+    e = compute_metrics(empty, startup_s=0.0)
+    assert [name for name in errors if not math.isnan(getattr(e, name))] == []
+    assert e.duration_s == 0.0
+    last = compute_metrics(_traj(), startup_s=2.0)  # only the sample t = 2 s: cos(20 pi) = 1
+    assert last.speed_error_rms_mps == pytest.approx(0.3, rel=1e-12)
+    assert last.torque_rms_nm == 300.0
+
+
+def test_to_dict_turns_every_non_finite_number_into_none():
+    """Metrics.to_dict is JSON-ready: NaN and +-inf become None, finite values and the status
+    pass unchanged, and the dict serialises with allow_nan=False."""
+    m = compute_metrics(_traj(), startup_s=1.0)  # no real_time_factor in meta: NaN
+    m = dataclasses.replace(m, torque_rms_nm=math.inf, steer_rate_max_radps=-math.inf)
+    d = m.to_dict()
+    assert list(d) == [f.name for f in dataclasses.fields(Metrics)]
+    assert d["real_time_factor"] is None and d["course_error_max_deg"] is None
+    assert d["torque_rms_nm"] is None and d["steer_rate_max_radps"] is None
+    assert d["lateral_error_rms_m"] == m.lateral_error_rms_m and d["status"] == "completed"
+    json.dumps(d, allow_nan=False)
+
+
 def test_signals_by_name_are_read_only_copies():
+    """Signals and time are copied at construction (changing the caller's arrays afterwards
+    leaves the trajectory as it was, and the caller's arrays stay writable) and read-only."""
+    t = np.array([0.0, 1.0, 2.0])
+    a = np.array([1.0, 2.0, 3.0])
+    own = Trajectory(time=t, signals={"a": a}, units={"a": "m"})
+    a[0] = 7.0
+    t[0] = -1.0
+    assert own["a"][0] == 1.0 and own.time[0] == 0.0
+    assert a.flags.writeable and t.flags.writeable
     tr = _traj()
     assert tr["time"] is tr.time
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="read-only"):
         tr["vx"][0] = 1.0
-    with pytest.raises(KeyError, match="available: lateral_error"):
+    with pytest.raises(ValueError, match="read-only"):
+        tr.time[0] = 1.0
+    msg = "no signal 'nope'; available: lateral_error, steer, torque, vx, vx_ref, yaw_error"
+    with pytest.raises(KeyError, match=re.escape(msg)):
         tr["nope"]
     assert "vx" in tr and "nope" not in tr
     assert tr.names == list(UNITS)
@@ -105,14 +168,20 @@ def test_signals_by_name_are_read_only_copies():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"time": np.array([0.0, 1.0, 1.0])}, "strictly increasing"),
-        ({"signals": {"a": np.zeros(2)}, "units": {"a": "m"}}, "shape"),
-        ({"signals": {"a": np.zeros(3)}, "units": {}}, "no unit"),
-        ({"status": Status.LEFT_TRACK}, "status_time"),
-        ({"status_time": 1.0}, "None for a completed run"),
+        ({"time": np.array([0.0, 1.0, 1.0])},
+         r"^time must be strictly increasing: time\[2\] = 1\.0 s after time\[1\] = 1\.0 s$"),
+        ({"time": np.zeros((3, 1))}, r"^time has shape \(3, 1\): expected a 1-D array$"),
+        ({"signals": {"a": np.zeros(2)}, "units": {"a": "m"}},
+         r"^signal 'a' has shape \(2,\), expected \(3,\) like time$"),
+        ({"signals": {"a": np.zeros(3)}, "units": {}}, r"^signal 'a' has no unit in units$"),
+        ({"status": "completed"}, r"^status = 'completed': expected a Status$"),
+        ({"status": Status.LEFT_TRACK},
+         r"^status left_track needs the status_time at which it happened$"),
+        ({"status_time": 1.0}, r"^status_time = 1\.0 s: must be None for a completed run$"),
     ],
 )
 def test_invalid_trajectories(kwargs, match):
+    """Each invalid construction raises a ValueError with its full message."""
     base = {"time": np.array([0.0, 1.0, 2.0]), "signals": {}, "units": {}}
     with pytest.raises(ValueError, match=match):
         Trajectory(**{**base, **kwargs})
@@ -130,15 +199,42 @@ def test_parquet_round_trip_is_exact(tmp_path):
         np.testing.assert_array_equal(back[k], tr[k])
 
 
+def test_from_parquet_rejects_a_foreign_file(tmp_path):
+    """A Parquet file not written by to_parquet raises a ValueError naming the file and the
+    first missing flatfree metadata key."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = tmp_path / "foreign.parquet"
+    table = pa.table({"time": [0.0, 1.0], "x": [1.0, 2.0]})
+    pq.write_table(table, path)
+    msg = f"{path}: not a flatfree trajectory (missing b'flatfree.units')"
+    with pytest.raises(ValueError, match=re.escape(msg)):
+        Trajectory.from_parquet(path)
+    partial = tmp_path / "partial.parquet"
+    pq.write_table(table.replace_schema_metadata({b"flatfree.units": b'{"x": "m"}'}), partial)
+    msg = f"{partial}: not a flatfree trajectory (missing b'flatfree.status')"
+    with pytest.raises(ValueError, match=re.escape(msg)):
+        Trajectory.from_parquet(partial)
+
+
+def test_csv_export_of_an_early_stop_has_its_status_time(tmp_path):
+    """The first CSV line of a run that did not complete carries status and status_time."""
+    tr = _traj(n=11, status=Status.LEFT_TRACK, status_time=0.005)
+    lines = tr.to_csv(tmp_path / "run.csv").read_text().splitlines()
+    assert lines[0] == "# status=left_track status_time=0.005"
+    assert lines[1].split(",")[0] == "time [s]"
+
+
 def test_csv_export(tmp_path):
+    """Status line, "name [unit]" header, and the values exactly (repr round trip)."""
     tr = _traj(n=11)
     path = tr.to_csv(tmp_path / "run.csv")
     lines = path.read_text().splitlines()
     assert lines[0] == "# status=completed"
     assert lines[1].split(",")[:3] == ["time [s]", "lateral_error [m]", "yaw_error [rad]"]
     data = np.loadtxt(path, delimiter=",", skiprows=2)
-    np.testing.assert_array_equal(data[:, 0], tr.time)
-    np.testing.assert_array_equal(data[:, 4], tr["vx_ref"])
+    np.testing.assert_array_equal(data, np.column_stack([tr.time, *tr.signals.values()]))
 
 
 def test_course_error_metric_when_the_signal_is_there():
