@@ -24,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import warnings
 from pathlib import Path
 
@@ -252,6 +253,40 @@ def test_path_correction_settings_are_validated():
             cls(outer_wn=0.0)
         with pytest.raises(ValueError, match="outer_integral"):
             cls(outer_integral="yes")
+
+
+@pytest.mark.parametrize("value", [math.inf, math.nan, "100", True, 2.5, 2])
+def test_whole_number_settings_refuse_non_integers_naming_the_field(value):
+    """Windows and denoisers are whole sample counts: infinity, NaN, text, a boolean, a
+    fraction and a count below the minimum are ValueErrors naming the field and the value
+    (inf and NaN used to surface as OverflowError / a message without the field)."""
+    from flatfree.controllers.vehicle import MfcFlatSettings, MfcNaturalSettings
+
+    cases = ((MfcNaturalSettings, "window_lat", 3), (MfcNaturalSettings, "window_lon", 3),
+             (MfcFlatSettings, "window_lat", 2))
+    for cls, name, lo in cases:
+        if value == 2 and lo == 2:
+            assert getattr(cls(**{name: value}), name) == 2
+            continue
+        with pytest.raises(ValueError, match=rf"^{name} = {re.escape(repr(value))} samples: "
+                                             rf"must be an integer >= {lo}$"):
+            cls(**{name: value})
+    for name in ("denoise_lat", "denoise_lon", "denoise_yaw"):
+        if value == 2:
+            assert getattr(MfcNaturalSettings(**{name: value}), name) == 2
+            continue
+        with pytest.raises(ValueError, match=rf"^{name} = {re.escape(repr(value))}: must be 0 "
+                                             r"\(off\) or an integer >= 2 samples$"):
+            MfcNaturalSettings(**{name: value})
+
+
+def test_number_settings_refuse_booleans_and_text():
+    from flatfree.controllers.vehicle import MfcNaturalSettings
+
+    for value in (True, "40"):
+        with pytest.raises(ValueError, match=rf"^alpha_lat = {re.escape(repr(value))} "
+                                             r"\(m/s\^2\)/rad: expected a real number$"):
+            MfcNaturalSettings(alpha_lat=value)
 
 
 @pytest.mark.slow

@@ -163,8 +163,13 @@ def test_sprung_mass_above_total_mass():
 
 def test_overrides_are_validated():
     assert load_vehicle("peugeot406", mass=1360.0).mass == 1360.0
-    with pytest.raises(ValueError, match="mass"):
+    with pytest.raises(ValueError, match=r"^mass = -5\.0 kg: must be > 0$"):
         load_vehicle("peugeot406", mass=-5.0)
+    with pytest.raises(ValueError, match=r"^mass = True kg: expected a real number$"):
+        load_vehicle("peugeot406", mass=True)
+    with pytest.raises(ValueError, match=r"^vehicle overrides \['masss'\]: not parameters of "
+                                         r"a vehicle; valid: .*\bmass\b"):
+        load_vehicle("peugeot406", masss=1.0)
 
 
 @pytest.mark.parametrize(

@@ -90,6 +90,12 @@ def test_noise_switch_keeps_rates_and_delays():
         ('seed = -3\n', ["line 1", "field seed", "-3"]),
         ('[reference]\ndrive_limit = "yes"\n', ["line 2", "reference.drive_limit", "'yes'"]),
         ('wheels = 4\n', ["line 1", "field wheels", "unknown key"]),
+        # text and booleans are not numbers (float() would take "6" and true)
+        ('[reference]\na_lat_max = "6"\n', ["line 2", "reference.a_lat_max", "'6'",
+                                             "expected a real number"]),
+        ('[reference]\nj_lat_max = "inf"\n', ["line 2", "reference.j_lat_max", "'inf'"]),
+        ('[sensors.y]\nnoise_std = true\n', ["line 2", "sensors.y.noise_std", "True"]),
+        ('[road]\nbank_deg = [[0.0, true]]\n', ["road.bank_deg", "True"]),
         ('name = \n', ["malformed TOML", "line 1"]),
     ],
 )
@@ -108,11 +114,25 @@ def test_malformed_files_name_the_line_and_the_field(text, words):
         ({"plant": "14dof"}, "plant = '14dof'"),
         ({"noise": "yes"}, "noise = 'yes'"),
         ({"vehicle_overrides": {"mass": [1]}}, "vehicle_overrides.mass"),
+        ({"name": 3}, r"^name = 3: expected a text$"),
+        ({"description": None}, r"^description = None: expected a text$"),
+        ({"vehicle": 406}, r"^vehicle = 406: expected a preset name or a file path$"),
     ],
 )
 def test_invalid_scenarios(kwargs, match):
     with pytest.raises(ValueError, match=match):
         Scenario(**kwargs)
+
+
+def test_reference_names_and_laps_are_checked():
+    with pytest.raises(ValueError, match=r"^reference.track = 7: expected a name or a file path$"):
+        ReferenceSpec(track=7)
+    with pytest.raises(ValueError, match=r"^reference.recording = \[1\]: expected a name"):
+        ReferenceSpec(track=None, recording=[1])
+    for laps in (math.inf, math.nan, True, 1.5, 0, "2"):
+        with pytest.raises(ValueError, match=r"^reference.laps = .*: must be an integer >= 1$"):
+            ReferenceSpec(laps=laps)
+    assert ReferenceSpec(laps=2.0).laps == 2.0
 
 
 @pytest.mark.parametrize(

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["finite", "positive", "positive_or_inf", "nonnegative", "in_range"]
+import numpy as np
+
+__all__ = ["finite", "positive", "positive_or_inf", "nonnegative", "in_range", "whole"]
 
 
 def _fmt(name: str, value, unit: str) -> str:
@@ -12,12 +14,28 @@ def _fmt(name: str, value, unit: str) -> str:
     return f"{name} = {value!r}{u}"
 
 
-def finite(name: str, value, unit: str = "") -> float:
-    """Return ``float(value)``; raise ``ValueError`` if it is not a finite real number."""
+def _not_a_number(value) -> bool:
+    """True for the values ``float()`` would take but a numeric field must not: text (a TOML
+    file's ``"6"``) and booleans (``true`` is not 1)."""
+    return isinstance(value, (str, bytes, bool, np.bool_))
+
+
+def _real(value) -> float | None:
+    """``float(value)``, or None when it is not a real number (text and booleans are not)."""
+    if _not_a_number(value):
+        return None
     try:
-        v = float(value)
+        return float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{_fmt(name, value, unit)}: expected a real number") from None
+        return None
+
+
+def finite(name: str, value, unit: str = "") -> float:
+    """Return ``float(value)``; raise ``ValueError`` if it is not a finite real number (text and
+    booleans are not numbers here)."""
+    v = _real(value)
+    if v is None:
+        raise ValueError(f"{_fmt(name, value, unit)}: expected a real number")
     if not math.isfinite(v):
         raise ValueError(f"{_fmt(name, value, unit)}: must be finite")
     return v
@@ -33,11 +51,10 @@ def positive(name: str, value, unit: str = "") -> float:
 
 def positive_or_inf(name: str, value, unit: str = "") -> float:
     """A value > 0, ``inf`` allowed (an absent limit); NaN, <= 0 or not a number raise."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
+    v = _real(value)
+    if v is None:
         raise ValueError(f"{_fmt(name, value, unit)}: expected a real number > 0 (inf: no "
-                         "limit)") from None
+                         "limit)")
     if not v > 0.0:  # also NaN
         raise ValueError(f"{_fmt(name, value, unit)}: must be > 0 (inf: no limit)")
     return v
@@ -57,3 +74,12 @@ def in_range(name: str, value, lo: float, hi: float, unit: str = "") -> float:
     if not (lo <= v <= hi):
         raise ValueError(f"{_fmt(name, value, unit)}: must lie in [{lo}, {hi}]")
     return v
+
+
+def whole(name: str, value, lo: int, unit: str = "") -> int:
+    """An integer >= ``lo`` (an integral float such as a TOML ``100.0`` too); text, booleans,
+    NaN, infinity and fractions raise."""
+    v = _real(value)
+    if v is None or not math.isfinite(v) or v != int(v) or v < lo:
+        raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")
+    return int(v)

@@ -79,6 +79,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import os
 import re
 import tomllib
 from collections.abc import Mapping, Sequence
@@ -87,7 +88,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from flatfree._validate import finite, nonnegative, positive, positive_or_inf
+from flatfree._validate import finite, nonnegative, positive, positive_or_inf, whole
 from flatfree.sensors import SensorChannel, SensorSuite
 
 __all__ = [
@@ -144,6 +145,10 @@ class ReferenceSpec:
     drive_limit: bool = False
 
     def __post_init__(self) -> None:
+        for k in ("track", "recording"):
+            v = getattr(self, k)
+            if v is not None and not isinstance(v, (str, os.PathLike)):
+                raise ValueError(f"reference.{k} = {v!r}: expected a name or a file path")
         if (self.track is None) == (self.recording is None):
             raise ValueError(
                 f"reference: give exactly one of track ({self.track!r}) and recording "
@@ -151,10 +156,7 @@ class ReferenceSpec:
             )
         _choice("reference.line", self.line, LINES)
         finite("reference.lateral_offset_m", self.lateral_offset_m, "m")
-        if (isinstance(self.laps, bool) or not isinstance(self.laps, numbers.Real)
-                or not math.isfinite(self.laps) or int(self.laps) != self.laps
-                or self.laps < 1):
-            raise ValueError(f"reference.laps = {self.laps!r}: must be an integer >= 1")
+        whole("reference.laps", self.laps, 1)
         if not isinstance(self.drive_limit, bool):
             raise ValueError(f"reference.drive_limit = {self.drive_limit!r}: must be true or "
                              "false")
@@ -253,11 +255,15 @@ class RoadSpec:
         object.__setattr__(self, "patches", tuple(self.patches))
         points = []
         for k, pt in enumerate(self.bank_deg):
+            pair = tuple(pt) if isinstance(pt, (tuple, list)) else ()
+            numeric = len(pair) == 2 and not any(isinstance(v, (str, bytes, bool)) for v in pair)
             try:
-                s_m, b = (float(v) for v in pt)
+                s_m, b = (float(v) for v in pair) if numeric else ((), ())
             except (TypeError, ValueError):
+                numeric = False
+            if not numeric:  # text and booleans are not numbers (as in _validate.finite)
                 raise ValueError(f"road.bank_deg[{k}] = {pt!r}: expected a pair "
-                                 "(s [m], bank [deg])") from None
+                                 "(s [m], bank [deg])")
             if not (math.isfinite(s_m) and math.isfinite(b) and abs(b) < 90.0):
                 raise ValueError(f"road.bank_deg[{k}] = {pt!r}: s must be finite and the bank "
                                  "within (-90, 90) deg")
@@ -315,6 +321,11 @@ class Scenario:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        for k in ("name", "description"):
+            if not isinstance(getattr(self, k), str):
+                raise ValueError(f"{k} = {getattr(self, k)!r}: expected a text")
+        if not isinstance(self.vehicle, (str, os.PathLike)):
+            raise ValueError(f"vehicle = {self.vehicle!r}: expected a preset name or a file path")
         _choice("plant", self.plant, PLANTS)
         _choice("controller", self.controller, CONTROLLERS)
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:

@@ -85,7 +85,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from flatfree._validate import finite, positive
+from flatfree._validate import finite, positive, whole
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers.flatness_control import (
     FlatnessControlParams,
@@ -185,7 +185,11 @@ def _check_denoise(settings) -> None:
         if not hasattr(settings, k):
             continue
         v = getattr(settings, k)
-        if isinstance(v, bool) or int(v) != v or v < 0 or v == 1:
+        try:
+            n = whole(k, v, 0, "samples")
+        except ValueError:
+            n = 1
+        if n == 1:
             raise ValueError(f"{k} = {v!r}: must be 0 (off) or an integer >= 2 samples")
 
 
@@ -492,9 +496,7 @@ class MfcNaturalSettings:
             raise ValueError(f"wn_lat_ratio = {self.wn_lat_ratio!r}: must be >= 1")
         positive("zeta_lat", self.zeta_lat, "-")
         for k in ("window_lon", "window_lat"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or int(v) != v or v < 3:
-                raise ValueError(f"{k} = {v!r}: must be an integer >= 3 samples")
+            whole(k, getattr(self, k), 3, "samples")
         if self.derivative_lat not in ("model", "algebraic"):
             raise ValueError(
                 f"derivative_lat = {self.derivative_lat!r}: must be 'model' or 'algebraic'")
@@ -582,9 +584,7 @@ class MfcFlatSettings:
             if finite(k, getattr(self, k), "1/s^2") < 0.0:
                 raise ValueError(f"{k} = {getattr(self, k)!r} 1/s^2: must be >= 0")
         for k in ("window_lon", "window_lat"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or int(v) != v or v < 2:
-                raise ValueError(f"{k} = {v!r}: must be an integer >= 2 samples")
+            whole(k, getattr(self, k), 2, "samples")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -435,6 +435,10 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
         tire_rear=_tire_from_doc(doc["tire_rear"], path),
         **values,
     )
+    unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(VehicleParams)})
+    if unknown:
+        raise ValueError(f"vehicle overrides {unknown}: not parameters of a vehicle; valid: "
+                         f"{', '.join(f.name for f in dataclasses.fields(VehicleParams))}")
     return dataclasses.replace(params, **overrides) if overrides else params
 
 
