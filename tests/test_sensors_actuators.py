@@ -126,9 +126,10 @@ def test_delay_and_rate_are_rounded_to_the_nearest_whole_period():
     """SensorChannel docstring: the delay is rounded to whole controller periods, the sample
     period rounded and at least 1. At 1 ms: 2.4 ms -> 2 steps, 2.6 ms -> 3, 0.4 ms -> 0;
     300 Hz (3.33 steps) -> 3, 220 Hz (4.55) -> 5, 1500 Hz (0.67) -> 1, 3000 Hz (0.33, which
-    rounds to 0) -> 1. (Exact halves are not specified, so not checked.)"""
+    rounds to 0) -> 1, 400 Hz (2.5, an exact half: to the even number, as documented) -> 2."""
     delays = {"d24": (0.0024, 2), "d26": (0.0026, 3), "d04": (0.0004, 0)}
-    rates = {"r300": (300.0, 3), "r220": (220.0, 5), "r1500": (1500.0, 1), "r3000": (3000.0, 1)}
+    rates = {"r300": (300.0, 3), "r220": (220.0, 5), "r1500": (1500.0, 1), "r3000": (3000.0, 1),
+             "r400": (400.0, 2)}  # 2.5 steps exactly: the half to the even number
     chans = {**{k: SensorChannel(delay_s=d) for k, (d, _) in delays.items()},
              **{k: SensorChannel(rate_hz=f) for k, (f, _) in rates.items()}}
     names = tuple(chans)

@@ -3,7 +3,8 @@
 The controller commands a wheel torque T_w [N m] (positive drive, negative brake) and a road-wheel
 steer angle delta [rad]. Between command and plant, :func:`actuate_step` applies, in order:
 
-1. **dead time**: the command of ``delay_steps`` plant steps earlier (rounded to the plant step);
+1. **dead time**: the command of ``delay_steps`` plant steps earlier (rounded to the nearest
+   plant step, an exact half to the even number as Python's ``round``);
 2. **first-order lag** with time constant ``tau`` [s], discretised exactly for a command held over
    the step: ``y += (1 - exp(-dt / tau)) (u - y)`` (``tau = 0``: no lag);
 3. **rate limit** (steering) [rad/s];

@@ -4,12 +4,14 @@ A :class:`SensorChannel` describes one measured signal; a :class:`SensorSuite` m
 names to channels. The simulation evaluates them at the controller's rate through the compiled
 :func:`sense_step`, over arrays built by :meth:`SensorSuite.compile`:
 
-- **delay**: rounded to a whole number of controller periods (``delay_steps``); the channel
+- **delay**: rounded to the nearest whole number of controller periods (``delay_steps``; an
+  exact half to the even number, as Python's ``round``); the channel
   returns the true value of ``delay_steps`` periods earlier (the first value before enough
   history exists).
 - **sample rate**: a channel slower than the controller holds its last sample between updates
-  (``period_steps`` controller periods apart, rounded, at least 1); a rate of ``None`` means
-  every controller step.
+  (``period_steps`` controller periods apart, rounded as the delay, at least 1: 400 Hz at a 1 kHz
+  controller samples every 2 steps); a rate of ``None`` means every controller step. A sample
+  that is not finite is not held (:func:`sense_step`).
 - **noise**: additive Gaussian, standard deviation ``noise_std``, drawn in advance for the whole
   run from ``numpy.random.default_rng(seed)``: the same seed gives bit-identical runs, different
   seeds different noise. Noise is drawn once per sample (held between samples).
