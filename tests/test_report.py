@@ -12,6 +12,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import os
 import re
 import shutil
 import socket
@@ -129,9 +130,19 @@ def test_run_result_needs_metrics_or_a_reason():
 
 
 def test_machine_info_has_versions():
+    """The installed versions themselves (not "not installed"), and the machine."""
+    import platform
+
+    import numba
+
+    import flatfree
+
     info = machine_info()
-    for k in ("flatfree", "numpy", "numba", "python", "cpu", "cores", "date (UTC)"):
-        assert info[k]
+    assert info["numpy"] == np.__version__ and info["numba"] == numba.__version__
+    assert info["flatfree"] == flatfree.__version__
+    assert info["python"] == platform.python_version()
+    assert info["cores"] == str(os.cpu_count() or "unknown")
+    assert info["cpu"] and re.fullmatch(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d", info["date (UTC)"])
 
 
 # ------------------------------------------------------------------------------------------
@@ -173,6 +184,14 @@ def test_report_is_self_contained_and_escapes_user_strings(report):
     refs = [v for _, k, v in tags.attrs if k in ("src", "href", "srcset", "action")]
     assert refs and all(v.startswith("data:image/png;base64,") for v in refs)
     assert "url(" not in text  # no CSS fetch either
+    # and the browser is told so: a Content-Security-Policy that fetches nothing but data:
+    # images and inline style (the module docstring's promise)
+    csp = [dict(a) for tag, a in tags.metas if a.get("http-equiv") == "Content-Security-Policy"]
+    assert len(csp) == 1
+    policy = {d.split()[0]: d.split()[1:] for d in csp[0]["content"].split(";") if d.strip()}
+    assert policy["default-src"] == ["'none'"] and policy["img-src"] == ["data:"]
+    assert set(policy) <= {"default-src", "img-src", "style-src", "base-uri", "form-action"}
+    assert all("http" not in v for vals in policy.values() for v in vals)
     # the user's strings appear escaped
     assert html_escaped(EVIL) in text and EVIL not in text
     # every embedded image is exactly one of the PNG files
@@ -193,10 +212,13 @@ class _Tags(HTMLParser):
         super().__init__()
         self.names: set[str] = set()
         self.attrs: list[tuple[str, str, str]] = []
+        self.metas: list[tuple[str, dict[str, str]]] = []
 
     def handle_starttag(self, tag, attrs):
         self.names.add(tag)
         self.attrs.extend((tag, k, v or "") for k, v in attrs)
+        if tag == "meta":
+            self.metas.append((tag, {k: v or "" for k, v in attrs}))
 
 
 def html_escaped(s: str) -> str:

@@ -170,10 +170,26 @@ def test_dynamic_states_satisfy_the_paper_model_and_notes_y2_dot():
              - c["cr"] * (c["lf"] + c["lr"]) * (lat.vy - c["lr"] * lat.r) / lat.vx)
     np.testing.assert_allclose(lat.y2_dot, notes, rtol=1e-9, atol=1e-6)
     np.testing.assert_allclose(lat.y2, c["lf"] * c["mass"] * lat.vy - c["iz"] * lat.r)
-    # the integrated Vy is consistent with its derivative (central differences, O(dt^2))
-    fd = np.gradient(lat.vy, lat.t)
-    err = np.abs(fd[1:-1] - lat.vy_dot[1:-1])
-    assert np.median(err) < 0.01 * np.abs(lat.vy_dot).max()
+    # the integrated Vy's consistency with its derivative: see the slalom test below (a max
+    # error here is not informative: a_x, hence vy', jumps every few samples on this profile)
+
+
+@pytest.mark.parametrize("method", ["dynamic", "path"])
+def test_integrated_vy_is_consistent_with_its_derivative_to_second_order(method):
+    """Constant speed on the smooth slalom: the central difference of the integrated Vy differs
+    from the returned Vy' by O(dt^2), both being second-order approximations of the same
+    solution: the max difference (away from the ends) falls by 4 when dt halves (measured
+    3.96-4.00; a one-sample lag or an Euler step would leave O(1) or O(dt))."""
+    errs = []
+    for dt in (0.02, 0.01, 0.005):
+        lat = T.reference_states_3dof(T.make_reference(_slalom(), 15.0, dt=dt), method=method,
+                                      **CAR)
+        n = lat.t.size
+        inner = slice(n // 10, n - n // 10)
+        errs.append(np.abs(np.gradient(lat.vy, lat.t) - lat.vy_dot)[inner].max())
+        assert errs[-1] < 1e-2 * np.abs(lat.vy_dot).max()
+    for coarse, fine in itertools.pairwise(errs):
+        assert 3.5 < coarse / fine < 4.5, errs
 
 
 def test_constant_cornering_matches_rajamani_closed_forms():
@@ -268,9 +284,14 @@ def test_path_states_satisfy_the_paper_model_and_the_path_kinematics():
              - c["cr"] * (c["lf"] + c["lr"]) * (lat.vy - c["lr"] * lat.r) / lat.vx)
     np.testing.assert_allclose(lat.y2_dot, notes, rtol=1e-9, atol=1e-6)
     np.testing.assert_allclose(lat.y1, lat.vx)
-    # vx and its returned derivative agree (central differences)
-    fd = np.gradient(lat.vx, lat.t)
-    assert np.median(np.abs(fd - lat.ax)[1:-1]) < 1e-3 * np.abs(lat.ax).max()
+    # vx and its returned derivative agree: the central difference is the mean of vx' over
+    # [t - dt, t + dt], so it lies within the range of ax there up to the sampling of that
+    # range (where ax is smooth, fd - ax = dt^2/6 ax'' + ..., i.e. a sixth of ax's second
+    # difference); exact where ax is constant
+    fd = np.gradient(lat.vx, lat.t)[1:-1]
+    win = np.stack([lat.ax[:-2], lat.ax[1:-1], lat.ax[2:]])
+    slack = np.abs(np.diff(lat.ax, 2)) / 6.0 * 1.01 + 1e-9
+    assert np.all(fd >= win.min(axis=0) - slack) and np.all(fd <= win.max(axis=0) + slack)
 
 
 def test_path_states_on_a_circle_solve_the_exact_steady_balance():
