@@ -4,6 +4,7 @@ responses, the closed-form continuous delay, and the design rule (flatfree.estim
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from flatfree.estimators import (
     delay,
     design_for,
     predicted_rms,
+    signal_std_estimate,
 )
 
 
@@ -59,6 +61,19 @@ def test_not_exact_one_degree_beyond():
     d = JacobiDesign(n=41, dt=0.01, order=1, N=1, lag=0.0)
     t = -np.arange(41) * 0.01
     assert abs(d.weights @ t**3 - 0.0) > 1e-4  # d/dt t^3 at 0 is 0; the estimate is not
+
+
+@pytest.mark.parametrize("kw", [dict(n=51), dict(n=101, N=1), dict(n=61, order=2, N=1),
+                                dict(n=81, kappa=1.0, mu=1.0), dict(n=61, order=0, N=1, lag=0.0)])
+def test_documented_degree_is_sharp(kw):
+    """``degree`` (one more at an "exact" evaluation point) is exactly the exactness degree: the
+    test above shows exactness at ``degree``; here ``(t/T)^(degree + 1)`` is not reproduced.
+    Its error is O(1/T^order), far above the rounding bound of the exactness test."""
+    d = JacobiDesign(dt=1e-3, **kw)
+    y = (-np.arange(d.n) * d.dt / d.T) ** (d.degree + 1)
+    p = np.polynomial.Polynomial.basis(d.degree + 1) / d.T ** (d.degree + 1)
+    ref = p.deriv(d.order)(-d.delay) if d.order else p(-d.delay)
+    assert abs(d.weights @ y - ref) > 1e3 * 1e-9 * (np.abs(d.weights) @ np.abs(y))
 
 
 @pytest.mark.parametrize("order,kappa,mu", [(1, 0.0, 0.0), (1, 1.0, 0.0), (1, 0.0, 2.0),
@@ -129,11 +144,22 @@ def test_cutoff_helper_matches_measured_sine_response(kw):
     assert ratio == pytest.approx(1 / math.sqrt(2), rel=1e-9)
 
 
-def test_from_cutoff_and_from_window():
-    d = JacobiDesign.from_cutoff(10.0, 1e-3, N=1)
-    # the closest integer window: the cutoff moves by ~ fc/n per sample of window
-    assert abs(d.cutoff - 10.0) < 10.0 / d.n
+@pytest.mark.parametrize("fc, kw", [(10.0, dict(N=1)), (25.0, dict(order=2, kappa=1.0))])
+def test_from_cutoff_picks_the_window_closest_to_the_target(fc, kw):
+    """The documented promise: of all windows, the one whose cutoff (:func:`cutoff`, checked
+    against the measured sine response above) is the closest to the target; checked against
+    both neighbours (n - 1, n + 1: a bisection off by one fails) and five windows each side."""
+    d = JacobiDesign.from_cutoff(fc, 1e-3, **kw)
+    err = abs(cutoff(d) - fc)
+    for n in range(d.n - 5, d.n + 6):
+        if n != d.n:
+            assert err <= abs(cutoff(JacobiDesign(n=n, dt=1e-3, **kw)) - fc)
+    assert (d.order, d.N, d.kappa) == (kw.get("order", 1), kw.get("N", 0), kw.get("kappa", 0.0))
+
+
+def test_from_window():
     assert JacobiDesign.from_window(0.05, 1e-3).n == 51
+    assert JacobiDesign.from_window(0.0504, 1e-3).n == 51  # n = round(T / dt) + 1
 
 
 # ---------------------------------------------------------------------------------------------
@@ -196,24 +222,108 @@ def test_rule_respects_max_delay_and_reacts_to_noise():
 @pytest.mark.parametrize(
     "kw, text",
     [
-        (dict(n=2, dt=1e-3, order=1, N=1), "n = 2"),
-        (dict(n=10, dt=0.0), "dt = 0.0"),
-        (dict(n=10, dt=1e-3, kappa=-1.0), "kappa = -1.0"),
-        (dict(n=10, dt=1e-3, lag=0.5), "lag = 0.5"),
-        (dict(n=10, dt=1e-3, lag="fast"), "lag = 'fast'"),
-        (dict(n=10, dt=1e-3, order=-1), "order = -1"),
-        (dict(n=30, dt=1e-3, order=6, N=7), "order \\+ N = 13"),
+        (dict(n=2, dt=1e-3, order=1, N=1), "n = 2: must be >= 3"),
+        (dict(n=10, dt=0.0), "dt = 0.0 s: must be > 0"),
+        (dict(n=10, dt=True), "dt = True s: expected a real number"),
+        (dict(n=10, dt=1e-3, kappa=-1.0), "kappa = -1.0: Jacobi exponent must be > -1"),
+        (dict(n=10, dt=1e-3, mu="0"), "mu = '0': expected a real number"),
+        (dict(n=10, dt=1e-3, mu=math.inf), "mu = inf: must be finite"),
+        (dict(n=10, dt=1e-3, lag=0.5), "lag = 0.5 s: must lie in [0, T = 0.009000000000000001] s"),
+        (dict(n=10, dt=1e-3, lag="fast"), "lag = 'fast': expected a time in s or \"exact\""),
+        (dict(n=10, dt=1e-3, N=1, lag=True), "lag = True s: expected a real number"),
+        (dict(n=10, dt=1e-3, order=-1), "order = -1: must be >= 0"),
+        (dict(n=30, dt=1e-3, order=6, N=7), "order + N = 13: the fit degree must be <= 12"),
     ],
 )
 def test_bad_designs_raise(kw, text):
-    with pytest.raises(ValueError, match=text):
+    with pytest.raises(ValueError, match=f"^{re.escape(text)}$"):
         JacobiDesign(**kw)
 
 
-def test_bad_rule_inputs_raise():
-    with pytest.raises(ValueError, match="bandwidth_hz = 600.0"):
-        design_for(1e-3, bandwidth_hz=600.0, noise_std=0.01, signal_std=1.0)
-    with pytest.raises(ValueError, match="noise_std = -1"):
-        design_for(1e-3, bandwidth_hz=2.0, noise_std=-1, signal_std=1.0)
-    with pytest.raises(ValueError, match="max_delay = -0.1"):
-        design_for(1e-3, bandwidth_hz=2.0, noise_std=0.01, signal_std=1.0, max_delay=-0.1)
+def test_bad_alternative_constructor_inputs_raise():
+    with pytest.raises(ValueError, match=r"^T = -1 s: must be > 0$"):
+        JacobiDesign.from_window(-1, 1e-3)
+    with pytest.raises(ValueError, match=r"^T = '0\.05' s: expected a real number$"):
+        JacobiDesign.from_window("0.05", 1e-3)
+    with pytest.raises(ValueError, match=re.escape("cutoff_hz = 600.0 Hz: must lie in (0, "
+                                                   "Nyquist = 500.0) Hz") + "$"):
+        JacobiDesign.from_cutoff(600.0, 1e-3)
+    with pytest.raises(ValueError, match=r"^cutoff_hz = nan Hz: must be finite$"):
+        JacobiDesign.from_cutoff(math.nan, 1e-3)
+
+
+@pytest.mark.parametrize(
+    "kw, text",
+    [
+        (dict(bandwidth_hz=600.0), "bandwidth_hz = 600.0 Hz: must lie in (0, 500.0) Hz (Nyquist)"),
+        (dict(bandwidth_hz=math.nan), "bandwidth_hz = nan Hz: must be finite"),
+        (dict(bandwidth_hz="2"), "bandwidth_hz = '2' Hz: expected a real number"),
+        (dict(noise_std=-1), "noise_std = -1 (signal units): must be >= 0"),
+        (dict(noise_std="0.01"), "noise_std = '0.01' (signal units): expected a real number"),
+        (dict(noise_std=[0.01]), "noise_std = [0.01] (signal units): expected a real number"),
+        (dict(signal_std=0.0), "signal_std = 0.0 (signal units): must be > 0"),
+        (dict(signal_std=True), "signal_std = True (signal units): expected a real number"),
+        (dict(max_delay=-0.1), "max_delay = -0.1 s: must be >= 0"),
+        (dict(max_delay=math.inf), "max_delay = inf s: must be finite"),
+    ],
+)
+def test_bad_rule_inputs_raise(kw, text):
+    args = {**dict(bandwidth_hz=2.0, noise_std=0.01, signal_std=1.0), **kw}
+    with pytest.raises(ValueError, match=f"^{re.escape(text)}$"):
+        design_for(1e-3, **args)
+
+
+# ---------------------------------------------------------------------------------------------
+# signal_std_estimate: sqrt(max(var(y - linear trend) - noise_std^2, noise_std^2))
+# ---------------------------------------------------------------------------------------------
+def _cosine_plus_trend(A, m=1000, cycles=7):
+    """y_i = A cos(2 pi cycles (i - c) / m) + 0.3 - 0.02 i, c = (m - 1)/2.
+
+    By hand: the cosine is even about the centre c, so sum (i - c) cos = 0; with
+    theta = 2 pi cycles / m, sum_i cos(theta (i - c)) = Re(e^{-j theta c} sum_i e^{j theta i})
+    = 0 (a full geometric sum, cycles not a multiple of m). The cosine is thus orthogonal to
+    1 and i: the least-squares line removes exactly the trend and the residual is the cosine.
+    Its mean square is A^2/2 (1 + mean cos(2 theta (i - c))) = A^2 / 2 (same argument, 2 cycles
+    not a multiple of m)."""
+    i = np.arange(m, dtype=np.float64)
+    return A * np.cos(2 * np.pi * cycles * (i - (m - 1) / 2) / m) + 0.3 - 0.02 * i
+
+
+@pytest.mark.parametrize(
+    "A, s, expected",
+    [
+        (2.0, 0.0, math.sqrt(2.0)),  # var A^2/2 = 2, no noise
+        (2.0, 0.3, math.sqrt(2.0 - 0.09)),  # var - s^2
+        (0.2, 0.3, 0.3),  # var 0.02 < 2 s^2 = 0.18: the floor s
+    ],
+)
+def test_signal_std_estimate_follows_its_documented_formula(A, s, expected):
+    y = _cosine_plus_trend(A)
+    # rounding only: the residual is computed from O(20) numbers (the trend reaches -20)
+    assert signal_std_estimate(y, s) == pytest.approx(expected, rel=1e-12)
+
+
+def test_signal_std_estimate_stays_positive_without_variation_or_noise():
+    """The documented floor: the residual of a zero record is exactly 0 and noise_std = 0, yet
+    the estimate (a signal_std for design_for, which must be > 0) stays positive."""
+    S = signal_std_estimate(np.zeros(100), 0.0)
+    assert S > 0.0
+    design_for(1e-3, bandwidth_hz=2.0, noise_std=0.0, signal_std=S)  # accepted
+
+
+@pytest.mark.parametrize(
+    "y, s, text",
+    [
+        (np.ones(10), -1, "noise_std = -1 (signal units): must be >= 0"),
+        (np.ones(10), math.nan, "noise_std = nan (signal units): must be finite"),
+        (np.ones(10), None, "noise_std = None (signal units): expected a real number"),
+        (np.ones(10), "abc", "noise_std = 'abc' (signal units): expected a real number"),
+        (np.ones(10), True, "noise_std = True (signal units): expected a real number"),
+        (np.ones(2), 0.1, "y: expected a 1-D record of at least 3 samples, got shape (2,)"),
+        (np.ones((3, 3)), 0.1, "y: expected a 1-D record of at least 3 samples, got shape (3, 3)"),
+        (np.r_[1.0, 2.0, np.inf, 4.0], 0.1, "y[2] = inf: samples must be finite"),
+    ],
+)
+def test_signal_std_estimate_refuses_bad_input(y, s, text):
+    with pytest.raises(ValueError, match=f"^{re.escape(text)}$"):
+        signal_std_estimate(y, s)

@@ -4,16 +4,19 @@ compiled-loop form, the one-call entry point and the standard accuracy test (iss
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
 from numba import njit
 
 from flatfree.estimators import (
+    SHRINK_MAX_TAPS,
     FEstimator,
     JacobiDesign,
     Stream,
     causal_filter,
+    check_timestamps,
     derivative_weights,
     differentiate,
     estimate_f,
@@ -113,18 +116,35 @@ def test_f_estimator_shrink_start_is_exact_after_nu_plus_one_samples(nu):
     np.testing.assert_allclose(out[nu:], F, rtol=1e-9)
 
 
+def _whole(text):
+    """A pattern matching exactly ``text``, the whole message."""
+    return f"^{re.escape(text)}$"
+
+
+RAISE = "non-finite sample (nonfinite = 'raise')"
+HOLD_FIRST = "non-finite sample (nonfinite = 'hold', and no earlier finite sample to hold)"
+
+
 def test_nonfinite_policies():
     d = DESIGNS[0]
     _, y = _signal(300)
     bad = y.copy()
     bad[120] = np.nan
-    with pytest.raises(ValueError, match=r"y\[120\] = nan"):
+    with pytest.raises(ValueError, match=_whole(f"y[120] = nan: {RAISE}")):
         causal_filter(d, bad)
     s = Stream(d)
     for v in bad[:120]:
         s.update(v)
-    with pytest.raises(ValueError, match="sample = nan"):
+    with pytest.raises(ValueError, match=_whole(f"sample[120] = nan: {RAISE}")):
         s.update(bad[120])
+    # the refused sample was not pushed: the stream goes on as if it never came
+    ref = causal_filter(d, np.r_[bad[:120], bad[121:]])
+    assert s.update(bad[121]) == pytest.approx(ref[120], abs=1e-12 * _scale(d.weights, y))
+    with pytest.raises(ValueError, match=_whole(f"sample[122] = -inf: {RAISE}")):
+        s.update(-np.inf)  # the index counts every sample handed over, refused ones too
+    s.reset()
+    with pytest.raises(ValueError, match=_whole(f"sample[0] = inf: {RAISE}")):
+        s.update(np.inf)  # and restarts at the reset
     # hold: the NaN is replaced by the previous sample, in both doors
     held = y.copy()
     held[120] = held[119]
@@ -135,12 +155,41 @@ def test_nonfinite_policies():
     st = np.array([s.update(v) for v in bad])
     assert np.abs(st - ref).max() <= 1e-12 * _scale(d.weights, y)
     assert np.all(np.isfinite(st))
-    with pytest.raises(ValueError, match=r"y\[0\] = inf"):
+    with pytest.raises(ValueError, match=_whole(f"y[0] = inf: {HOLD_FIRST}")):
         causal_filter(d, np.r_[np.inf, y], nonfinite="hold")
-    with pytest.raises(ValueError, match="non-finite"):
+    with pytest.raises(ValueError, match=_whole(f"sample[0] = nan: {HOLD_FIRST}")):
         Stream(d, nonfinite="hold").update(np.nan)
-    with pytest.raises(ValueError, match="nonfinite = 'skip'"):
+    s = Stream(d, nonfinite="hold")
+    s.update(1.0)
+    s.reset()  # forgets the held sample too
+    with pytest.raises(ValueError, match=_whole(f"sample[0] = -inf: {HOLD_FIRST}")):
+        s.update(-np.inf)
+    with pytest.raises(ValueError, match=_whole("nonfinite = 'skip': expected one of ['hold', "
+                                                "'raise']")):
         Stream(d, nonfinite="skip")
+
+
+@pytest.mark.parametrize("nonfinite", ["raise", "hold"])
+def test_update_many_names_the_refused_sample_and_pushes_the_ones_before(nonfinite):
+    d = DESIGNS[0]
+    _, y = _signal(300)
+    s = Stream(d, nonfinite=nonfinite)
+    if nonfinite == "hold":
+        with pytest.raises(ValueError, match=_whole(f"sample[0] = nan: {HOLD_FIRST}")):
+            s.update_many(np.r_[np.nan, y[:5]])
+        s.update_many(y[:100])
+        out = s.update_many(np.r_[np.nan, y[101:]])  # held from here on: no error
+        ref = causal_filter(d, np.r_[y[:100], y[99], y[101:]])
+        assert np.abs(out - ref[100:]).max() <= 1e-12 * _scale(d.weights, y)
+        return
+    s.update_many(y[:100])
+    with pytest.raises(ValueError, match=_whole(f"sample[150] = inf: {RAISE}")):
+        s.update_many(np.r_[y[100:150], np.inf, y[150:]])
+    # y[:150] were pushed: the next sample continues that record, as sample 151
+    ref = causal_filter(d, y)
+    assert s.update(y[150]) == pytest.approx(ref[150], abs=1e-12 * _scale(d.weights, y))
+    with pytest.raises(ValueError, match=_whole(f"sample[152] = nan: {RAISE}")):
+        s.update_many([np.nan])
 
 
 def test_timestamps_and_window_validation():
@@ -159,6 +208,71 @@ def test_timestamps_and_window_validation():
         FEstimator(1, 1, 1e-3, 1.0)
     with pytest.raises(ValueError, match='startup = "shrink" is limited'):
         Stream(JacobiDesign(n=3000, dt=1e-3), startup="shrink")
+
+
+def test_check_timestamps_returns_the_period_and_names_each_bad_input():
+    assert check_timestamps([0.0, 0.5, 1.0, 1.5]) == 0.5  # the mean step
+    assert check_timestamps([0.0, 0.5, 1.0], dt=0.5) == 0.5
+    cases = [
+        (([0.0, 1.0, np.nan, 3.0],), {}, "t[2] = nan s: timestamps must be finite"),
+        (([0.0, 1.0, 2.0, -np.inf],), {}, "t[3] = -inf s: timestamps must be finite"),
+        (([3.0, 2.0, 1.0],), {}, "t: timestamps must increase (mean step -1.0 s)"),
+        (([1.0, 1.0, 1.0],), {}, "t: timestamps must increase (mean step 0.0 s)"),
+        (([0.0, 1.0, 0.5, 3.0],), {},
+         "t[2] - t[1] = -0.5 s: non-uniform timestamps (expected step 1.0 s within rtol 1e-06)"),
+        (([0.0, 1.0, 2.5],), {"dt": 1.0},
+         "t[2] - t[1] = 1.5 s: non-uniform timestamps (expected step 1.0 s within rtol 1e-06)"),
+        (([3.0, 2.0, 1.0],), {"dt": 1.0},
+         "t[1] - t[0] = -1.0 s: non-uniform timestamps (expected step 1.0 s within rtol 1e-06)"),
+        (([0.0, 1.0, 2.0],), {"dt": 0.0}, "dt = 0.0 s: must be > 0"),
+        (([0.0, 1.0, 2.0],), {"rtol": math.nan}, "rtol = nan: must be finite"),
+        (([0.0, 1.0, 2.0],), {"rtol": -1e-6}, "rtol = -1e-06: must be >= 0"),
+        (([0.0],), {}, "t: expected at least 2 timestamps in a 1-D array, got shape (1,)"),
+    ]
+    for args, kw, text in cases:
+        with pytest.raises(ValueError, match=_whole(text)):
+            check_timestamps(*args, **kw)
+
+
+def test_startup_limits_and_the_f_estimators_early_samples():
+    n = SHRINK_MAX_TAPS + 1
+    for call in (lambda: FEstimator(1, n, 1e-3, 1.0, startup="shrink"),
+                 lambda: estimate_f(np.zeros(3), np.zeros(3), nu=2, n=n, dt=1e-3, alpha=1.0,
+                                    startup="shrink")):
+        with pytest.raises(ValueError, match=_whole(
+                f'n = {n}: startup = "shrink" is limited to {SHRINK_MAX_TAPS} taps')):
+            call()
+    FEstimator(1, SHRINK_MAX_TAPS, 1e-3, 1.0, startup="shrink")  # the limit itself is allowed
+    with pytest.raises(ValueError, match=_whole(
+            'startup = "shrink" needs a JacobiDesign (raw weights have no shorter designs)')):
+        Stream(DESIGNS[0].weights, startup="shrink")
+    # "shrink", fewer than nu + 1 samples: the at-rest value -alpha u[k-1] (documented)
+    alpha, u = 1.7, np.array([0.4, -0.9, 2.0, 0.3])
+    for nu in (1, 2):
+        out = estimate_f(np.array([0.1, 0.5, -0.2, 0.0]), u, nu=nu, n=3, dt=1e-2, alpha=alpha,
+                         u_before=-0.6, startup="shrink")
+        np.testing.assert_array_equal(out[:nu], -alpha * np.r_[-0.6, u][:nu])
+
+
+@pytest.mark.parametrize(
+    "kw, text",
+    [
+        (dict(noise_std="abc"), "noise_std = 'abc' (signal units): expected a real number"),
+        (dict(noise_std=-0.01), "noise_std = -0.01 (signal units): must be >= 0"),
+        (dict(noise_std=math.nan, signal_std=1.0),
+         "noise_std = nan (signal units): must be finite"),
+        (dict(noise_std=None, signal_std=1.0),
+         "noise_std = None (signal units): expected a real number"),
+        (dict(signal_std="1"), "signal_std = '1' (signal units): expected a real number"),
+        (dict(bandwidth_hz=True), "bandwidth_hz = True Hz: expected a real number"),
+        (dict(max_delay=-1.0), "max_delay = -1.0 s: must be >= 0"),
+        (dict(dt=True), "dt = True s: expected a real number"),
+    ],
+)
+def test_differentiate_refuses_bad_numbers_naming_field_and_value(kw, text):
+    args = {**dict(dt=1e-3, bandwidth_hz=2.0, noise_std=0.01), **kw}
+    with pytest.raises(ValueError, match=_whole(text)):
+        differentiate(np.sin(np.arange(200) * 1e-2), **args)
 
 
 @njit  # no on-disk cache: a cached caller would not notice a changed fir_update
@@ -194,8 +308,11 @@ def test_compiled_loop_form_matches_the_object():
     ref = estimate_f(y, u, nu=1, n=20, dt=1e-3, alpha=2.0)
     wy, wu = f_estimator_weights(1, 20, 1e-3)
     assert np.abs(out - ref).max() <= 1e-12 * (_scale(wy, y) + 2.0 * _scale(wu, u))
-    with pytest.raises(ValueError, match="non-finite"):
-        fir_update(ks, np.nan)  # the compiled core refuses too (policy "raise")
+    # the compiled core refuses too (policy "raise"); it knows neither the caller's index nor
+    # can it format the value (numba), so its message is a constant
+    with pytest.raises(ValueError, match=_whole(
+            "non-finite sample (policy 'raise', or 'hold' with no finite sample yet)")):
+        fir_update(ks, np.nan)
 
 
 def test_differentiate_exact_on_polynomials_after_the_window():
@@ -204,9 +321,22 @@ def test_differentiate_exact_on_polynomials_after_the_window():
     est, d = differentiate(y, 1e-3, bandwidth_hz=2.0, noise_std=1e-3, order=2,
                            return_design=True)
     assert est.shape == y.shape
-    assert d.order == 2 and d.degree >= 2
+    assert d.order == 2
     # after the start-up window the design is exact on parabolas; rounding ~ eps |y| / dt^2 /n^2
     np.testing.assert_allclose(est[d.n:], -4.0, atol=1e-6)
+    # the chosen design's documented degree: exact on polynomials of that degree (the second
+    # derivative at t - delay), and not one degree beyond (the claim is sharp). One window,
+    # t = 0 now, y = sum c_k (t/T)^k: every power contributes O(|c| / T^2) to the derivative.
+    rng = np.random.default_rng(4)
+    tw = -np.arange(d.n) * d.dt
+    for deg, exact in ((d.degree, True), (d.degree + 1, False)):
+        p = np.polynomial.Polynomial(rng.normal(size=deg + 1) / d.T ** np.arange(deg + 1))
+        yw = p(tw)
+        err = abs(d.weights @ yw - p.deriv(2)(-d.delay))
+        # rounding, as in test_estimators_jacobi: 1e-9 sum|w||y| (~1e5 eps; the weights come
+        # from a least-squares solve); one degree beyond, the error is O(|c| / T^2), far above
+        bound = 1e-9 * (np.abs(d.weights) @ np.abs(yw))
+        assert (err <= bound) if exact else (err > 1e3 * bound)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -253,8 +383,23 @@ def test_standard_accuracy_regression():
 def test_f_estimator_refuses_nonfinite_with_the_value():
     fe = FEstimator(1, 10, 1e-3, 1.0)
     fe.update(0.0, 0.0)
-    with pytest.raises(ValueError, match="u_prev = inf"):
+    with pytest.raises(ValueError, match=_whole(f"u_prev[1] = inf: {RAISE}")):
         fe.update(0.1, math.inf)
+    with pytest.raises(ValueError, match=_whole(f"y[2] = nan: {RAISE}")):
+        fe.update(math.nan, math.inf)  # the output is named first
+    # the refused steps pushed nothing (their index counts): as if only the good ones came
+    ref = FEstimator(1, 10, 1e-3, 1.0)
+    ref.update(0.0, 0.0)
+    assert fe.update(0.1, 0.3) == ref.update(0.1, 0.3)
+    with pytest.raises(ValueError, match=_whole(f"y[4] = -inf: {RAISE}")):
+        fe.update(-math.inf, 0.0)
+    hold = FEstimator(2, 10, 1e-3, 1.0, nonfinite="hold")
+    with pytest.raises(ValueError, match=_whole(f"y[0] = nan: {HOLD_FIRST}")):
+        hold.update(math.nan, 0.0)
+    with pytest.raises(ValueError, match=_whole(f"u_prev[1] = inf: {HOLD_FIRST}")):
+        hold.update(1.0, math.inf)
+    hold.update(1.0, 0.5)
+    assert math.isfinite(hold.update(math.nan, math.nan))  # both held now
     with pytest.raises(ValueError, match=r"u\[3\] = nan"):
         estimate_f(np.zeros(6), np.array([0, 0, 1.0, np.nan, 0, 0]), nu=1, n=3, dt=1e-3,
                    alpha=1.0)

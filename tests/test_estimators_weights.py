@@ -6,7 +6,9 @@ ultra-local model under zero-order-hold inputs, and from the continuous kernels 
 
 from __future__ import annotations
 
+import functools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -206,28 +208,83 @@ def test_denoiser_returns_a_ramp_unchanged_at_the_current_time(n):
     # printed (3d - T) which returns the value at the window start
     np.testing.assert_allclose(
         w, JacobiDesign(n=n, dt=0.003, order=0, N=1, lag=0.0).weights, rtol=1e-10, atol=1e-13)
-    if n == 50:
-        T = (n - 1) * 0.003
-        d = np.arange(n) * 0.003
-        k = (2 / T**2) * (2 * T - 3 * d) * 0.003
-        assert np.abs(w - k).max() < 0.05 * np.abs(k).max()  # O(1/n) discretisation difference
+
+
+@functools.cache
+def _sympy_denoiser():
+    """Derived in sympy, for a symbolic window of n = 2c + 1 samples (c = (n - 1)/2, half the
+    window in samples) and i = sample age (0 = newest):
+
+    * ``w``: the least-squares line through (j, y_j), j = 0..n-1 oldest first, evaluated at the
+      newest sample j = n - 1, from the normal equations with symbolic sums (independent of the
+      library's centred closed form);
+    * ``k``: NOTES.md's continuous kernel (2/T^2)(2T - 3d) dt sampled at d = i dt, T = 2c dt;
+    * ``ratio``: max_i |w_i - k_i| / max_i |k_i| over i = 0..2c.
+    """
+    n, j, i, c = sp.symbols("n j i c", positive=True)
+    s0 = n
+    s1 = sp.summation(j, (j, 0, n - 1))
+    s2 = sp.summation(j**2, (j, 0, n - 1))
+    # y_hat(j0) = [1, j0] M^-1 sum_j [1, j] y_j: the weight of y_j
+    M = sp.Matrix([[s0, s1], [s1, s2]])
+    a = (sp.Matrix([[1, n - 1]]) * M.inv() * sp.Matrix([1, j]))[0]
+    w = sp.simplify(a.subs(j, n - 1 - i).subs(n, 2 * c + 1))
+    dt = sp.symbols("dt", positive=True)
+    T = 2 * c * dt
+    k = sp.simplify((2 / T**2) * (2 * T - 3 * i * dt) * dt)
+    # w and k are linear in i: the extremes of |w - k| and |k| on [0, 2c] are at the ends
+    assert sp.diff(w, i, 2) == 0 and sp.diff(k, i, 2) == 0
+    e0, e1 = sp.simplify((w - k).subs(i, 0)), sp.simplify((w - k).subs(i, 2 * c))
+    k0, k1 = k.subs(i, 0), sp.simplify(k.subs(i, 2 * c))
+    assert sp.simplify(k0 - 2 / c) == 0 and sp.simplify(k1 + 1 / c) == 0  # max |k| = k0 = 2/c
+    assert sp.simplify(e0 + (5 * c + 2) / (c * (2 * c + 1) * (c + 1))) == 0  # < 0
+    assert sp.simplify(e1 - (4 * c + 1) / (c * (2 * c + 1) * (c + 1))) == 0  # > 0, |e1| < |e0|
+    ratio = sp.simplify(-e0 / k0)
+    return c, i, w, ratio
+
+
+@pytest.mark.parametrize("n", [2, 3, 10, 50, 51, 200])
+def test_denoiser_equals_its_closed_form_and_the_sampled_kernel_difference(n):
+    """Weights (4c + 1 - 3i) / ((2c + 1)(c + 1)) and discretisation difference
+    max|w - k| / max|k| = (5c + 2) / (2 (2c + 1)(c + 1)), c = (n - 1)/2, both derived in sympy
+    (:func:`_sympy_denoiser`); the difference is O(1/n): 5/(8c) for large c."""
+    c, i, w_sym, ratio_sym = _sympy_denoiser()
+    assert sp.simplify(w_sym - (4 * c + 1 - 3 * i) / ((2 * c + 1) * (c + 1))) == 0
+    assert sp.simplify(ratio_sym - (5 * c + 2) / (2 * (2 * c + 1) * (c + 1))) == 0
+    cv = sp.Rational(n - 1, 2)
+    w_ref = np.array([float(w_sym.subs({c: cv, i: ii})) for ii in range(n)])
+    ratio_ref = float(ratio_sym.subs(c, cv))
+    w = denoising_weights(n)
+    eps = np.finfo(float).eps
+    # a few roundings of O(max|w|) numbers per weight: 4 eps of max|w|
+    assert np.abs(w - w_ref).max() <= 4 * eps * np.abs(w_ref).max()
+    dt = 0.003
+    T = (n - 1) * dt
+    d = np.arange(n) * dt
+    k = (2 / T**2) * (2 * T - 3 * d) * dt
+    # w and k each carry a few roundings relative to max|k| (>= max|w|): 8 eps on the ratio
+    assert abs(np.abs(w - k).max() / np.abs(k).max() - ratio_ref) <= 8 * eps
 
 
 @pytest.mark.parametrize(
     "call, text",
     [
-        (lambda: f_estimator_weights(3, 10, 0.01), "nu = 3"),
-        (lambda: f_estimator_weights(1, 1, 0.01), "n = 1"),
-        (lambda: f_estimator_weights(2, 2, 0.01), "n = 2"),
-        (lambda: f_estimator_weights(1, 5, 0.0), "dt = 0.0"),
-        (lambda: f_estimator_weights(1, 5, -1e-3), "dt = -0.001"),
-        (lambda: f_estimator_weights(1, 5, float("nan")), "dt = nan"),
-        (lambda: f_estimator_weights(1, 5.0, 0.01), "n = 5.0"),
-        (lambda: derivative_weights(1, 0.01), "n = 1"),
-        (lambda: derivative_weights(5, 0.01, order=3), "order = 3"),
-        (lambda: denoising_weights(1), "n = 1"),
+        (lambda: f_estimator_weights(3, 10, 0.01), "nu = 3: must be 1 or 2"),
+        (lambda: f_estimator_weights(1, 1, 0.01), "n = 1: must be >= 2"),
+        (lambda: f_estimator_weights(2, 2, 0.01), "n = 2: must be >= 3"),
+        (lambda: f_estimator_weights(1, 5, 0.0), "dt = 0.0 s: must be > 0"),
+        (lambda: f_estimator_weights(1, 5, -1e-3), "dt = -0.001 s: must be > 0"),
+        (lambda: f_estimator_weights(1, 5, float("nan")), "dt = nan s: must be finite"),
+        (lambda: f_estimator_weights(1, 5, "0.01"), "dt = '0.01' s: expected a real number"),
+        (lambda: f_estimator_weights(1, 5, True), "dt = True s: expected a real number"),
+        (lambda: f_estimator_weights(1, 5.0, 0.01), "n = 5.0: expected an integer >= 2"),
+        (lambda: derivative_weights(1, 0.01), "n = 1: must be >= 2"),
+        (lambda: derivative_weights(5, [0.01]), "dt = [0.01] s: expected a real number"),
+        (lambda: derivative_weights(5, 0.01, order=3),
+         "order = 3: must be 1 or 2 (use JacobiDesign for higher orders)"),
+        (lambda: denoising_weights(1), "n = 1: must be >= 2"),
     ],
 )
 def test_bad_arguments_raise_valueerror_naming_the_value(call, text):
-    with pytest.raises(ValueError, match=text.replace(".", r"\.")):
+    with pytest.raises(ValueError, match=f"^{re.escape(text)}$"):
         call()

@@ -38,13 +38,15 @@ import math
 import numpy as np
 from numpy.polynomial import legendre as _leg
 
-from flatfree.estimators._fweights import _check_dt, _check_int
+from flatfree._validate import finite, nonnegative, positive
+from flatfree.estimators._fweights import _check_dt, _check_int, _number
 from flatfree.estimators._jacobi import JacobiDesign, _fit_operator
 
 __all__ = ["design_for", "predicted_rms", "signal_std_estimate"]
 
 _N_CHOICES = (0, 1, 2, 3, 4)
 _KAPPA_CHOICES = (0.0, 1.0, 2.0)
+_SIGNAL_UNITS = "(signal units)"
 _NQUAD = 64  # Gauss-Legendre nodes on [0, B]: |H|^2 varies on the scale 1/T >= B/4, ample
 
 
@@ -69,15 +71,11 @@ def _check_rule_inputs(dt, bandwidth_hz, noise_std, signal_std, order):
     dt = _check_dt(dt)
     order = _check_int("order", order, 0)
     nyq = 0.5 / dt
-    B = float(bandwidth_hz) if np.isscalar(bandwidth_hz) else math.nan
-    if not (math.isfinite(B) and 0.0 < B < nyq):
+    B = _number(finite, "bandwidth_hz", bandwidth_hz, "Hz")
+    if not 0.0 < B < nyq:
         raise ValueError(f"bandwidth_hz = {bandwidth_hz!r} Hz: must lie in (0, {nyq}) Hz (Nyquist)")
-    s = float(noise_std) if np.isscalar(noise_std) else math.nan
-    if not (math.isfinite(s) and s >= 0.0):
-        raise ValueError(f"noise_std = {noise_std!r} (signal units): must be finite and >= 0")
-    S = float(signal_std) if np.isscalar(signal_std) else math.nan
-    if not (math.isfinite(S) and S > 0.0):
-        raise ValueError(f"signal_std = {signal_std!r} (signal units): must be finite and > 0")
+    s = _number(nonnegative, "noise_std", noise_std, _SIGNAL_UNITS)
+    S = _number(positive, "signal_std", signal_std, _SIGNAL_UNITS)
     return dt, B, s, S, order
 
 
@@ -170,9 +168,7 @@ def design_for(dt: float, *, bandwidth_hz: float, noise_std: float, signal_std: 
     if max_delay is None:
         max_lag = md = math.inf
     else:
-        md = float(max_delay) if np.isscalar(max_delay) else math.nan
-        if not (math.isfinite(md) and md >= 0.0):
-            raise ValueError(f"max_delay = {max_delay!r} s: must be finite and >= 0")
+        md = _number(nonnegative, "max_delay", max_delay, "s")
         max_lag = md / dt + 1e-9
         md = md * (1.0 + 1e-12)
     # longest window worth trying: 4 periods of the bandwidth (bias dominates beyond)
@@ -237,12 +233,31 @@ def signal_std_estimate(y, noise_std: float) -> float:
 
     ``sqrt(max(var(y - linear trend) - noise_std^2, noise_std^2))``: the linear trend is removed
     because every design of the family with ``N >= 0`` differentiates ramps exactly (a trend
-    is no bias); the floor keeps the estimate positive for records dominated by noise.
+    is no bias); the floor keeps the estimate positive for records dominated by noise. ``var``
+    is the mean square of the least-squares residual (``1/m``, ``m`` samples).
+
+    Parameters
+    ----------
+    y : array_like, shape (m,)
+        Uniformly spaced, finite samples, ``m >= 3``.
+    noise_std : float
+        Standard deviation of the white measurement noise (units of y), finite and >= 0.
+
+    Raises
+    ------
+    ValueError
+        Naming the field and the value: a record that is not 1-D with at least 3 samples, a
+        non-finite sample, a ``noise_std`` that is not a finite real number >= 0 (text and
+        booleans are not numbers).
     """
+    s = _number(nonnegative, "noise_std", noise_std, _SIGNAL_UNITS)
     y = np.asarray(y, dtype=np.float64)
     if y.ndim != 1 or y.size < 3:
         raise ValueError(f"y: expected a 1-D record of at least 3 samples, got shape {y.shape}")
-    s = float(noise_std)
+    bad = ~np.isfinite(y)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"y[{k}] = {float(y[k])!r}: samples must be finite")
     i = np.arange(y.size, dtype=np.float64)
     coef = np.polyfit(i - i.mean(), y, 1)
     r = y - np.polyval(coef, i - i.mean())

@@ -50,7 +50,8 @@ import numpy as np
 from numpy.polynomial import legendre as _leg
 from scipy.special import gammaln
 
-from flatfree.estimators._fweights import _check_dt, _check_int
+from flatfree._validate import finite, positive
+from flatfree.estimators._fweights import _check_dt, _check_int, _number
 
 __all__ = ["JacobiDesign", "jacobi_weights", "delay", "cutoff", "frequency_response"]
 
@@ -190,22 +191,16 @@ class JacobiDesign:
         object.__setattr__(self, "dt", _check_dt(self.dt))
         for name in ("kappa", "mu"):
             v = getattr(self, name)
-            try:
-                fv = float(v)
-            except (TypeError, ValueError):
-                raise ValueError(f"{name} = {v!r}: expected a real number > -1") from None
-            if not (math.isfinite(fv) and fv > -1.0):
-                raise ValueError(f"{name} = {v!r}: Jacobi exponent must be finite and > -1")
+            fv = _number(finite, name, v)  # text, booleans, NaN, inf: ValueError
+            if not fv > -1.0:
+                raise ValueError(f"{name} = {v!r}: Jacobi exponent must be > -1")
             object.__setattr__(self, name, fv)
         T = (self.n - 1) * self.dt
         if isinstance(self.lag, str) and self.lag != "exact":
             raise ValueError(f'lag = {self.lag!r}: expected a time in s or "exact"')
         if not isinstance(self.lag, str):
-            try:
-                lv = float(self.lag)
-            except (TypeError, ValueError):
-                raise ValueError(f'lag = {self.lag!r} s: expected a time in s or "exact"') from None
-            if not (math.isfinite(lv) and 0.0 <= lv <= T * (1.0 + 1e-12)):
+            lv = _number(finite, "lag", self.lag, "s")
+            if not 0.0 <= lv <= T * (1.0 + 1e-12):
                 raise ValueError(f"lag = {self.lag!r} s: must lie in [0, T = {T!r}] s")
         if self.N == 0:
             # the weights do not depend on the evaluation point: normalise to the intrinsic one
@@ -229,12 +224,7 @@ class JacobiDesign:
     def from_window(cls, T: float, dt: float, **kw) -> JacobiDesign:
         """Design with window ``T`` s: ``n = round(T / dt) + 1`` samples."""
         dt = _check_dt(dt)
-        try:
-            Tv = float(T)
-        except (TypeError, ValueError):
-            raise ValueError(f"T = {T!r} s: expected a real number") from None
-        if not (math.isfinite(Tv) and Tv > 0.0):
-            raise ValueError(f"T = {T!r} s: window must be finite and > 0")
+        Tv = _number(positive, "T", T, "s")
         return cls(n=int(round(Tv / dt)) + 1, dt=dt, **kw)
 
     @classmethod
@@ -244,12 +234,9 @@ class JacobiDesign:
         The window is found by bisection on ``n`` (cutoff decreases as the window grows).
         """
         dt = _check_dt(dt)
-        try:
-            fc = float(cutoff_hz)
-        except (TypeError, ValueError):
-            raise ValueError(f"cutoff_hz = {cutoff_hz!r} Hz: expected a real number") from None
+        fc = _number(finite, "cutoff_hz", cutoff_hz, "Hz")
         nyq = 0.5 / dt
-        if not (math.isfinite(fc) and 0.0 < fc < nyq):
+        if not 0.0 < fc < nyq:
             raise ValueError(f"cutoff_hz = {cutoff_hz!r} Hz: must lie in (0, Nyquist = {nyq}) Hz")
         order, N = kw.get("order", 1), kw.get("N", 0)
         lo = order + N + 1

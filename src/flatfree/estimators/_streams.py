@@ -7,8 +7,10 @@ import math
 import numpy as np
 from numba import njit
 
+from flatfree._validate import finite, nonnegative
 from flatfree.estimators._auto import design_for, signal_std_estimate
 from flatfree.estimators._fir import (
+    _HELD,
     NONFINITE,
     STARTUP,
     _policy,
@@ -19,7 +21,7 @@ from flatfree.estimators._fir import (
     fir_reset,
     fir_update,
 )
-from flatfree.estimators._fweights import _check_dt, _check_int, f_estimator_weights
+from flatfree.estimators._fweights import _check_dt, _check_int, _number, f_estimator_weights
 from flatfree.estimators._jacobi import JacobiDesign
 
 __all__ = [
@@ -35,8 +37,11 @@ def check_timestamps(t, dt: float | None = None, *, rtol: float = 1e-6) -> float
     """Check that timestamps ``t`` (s) are uniform; return their period.
 
     Raises ``ValueError`` naming the first offending step (index and value) when a step differs
-    from the period (``dt`` if given, else the mean step) by more than ``rtol`` relative.
+    from the period (``dt`` if given, else the mean step) by more than ``rtol`` relative; also
+    for fewer than 2 timestamps, a non-finite timestamp (index and value), a non-positive mean
+    step, and a ``dt`` or ``rtol`` that is not a finite real number (> 0, >= 0).
     """
+    rtol = _number(nonnegative, "rtol", rtol)
     t = np.asarray(t, dtype=np.float64)
     if t.ndim != 1 or t.size < 2:
         raise ValueError(f"t: expected at least 2 timestamps in a 1-D array, got shape {t.shape}")
@@ -106,7 +111,10 @@ class Stream:
         design of the available shorter window (JacobiDesign only, ``n <= 2048``).
     nonfinite : {"raise", "hold"}
         A NaN/inf sample raises ``ValueError`` ("raise", default) or is replaced by the last
-        finite sample ("hold").
+        finite sample ("hold"; ``ValueError`` when no finite sample has been seen yet). The
+        error names the sample by its index, counted from 0 over the samples handed to
+        :meth:`update` and :meth:`update_many` (pushed or refused) since construction or the
+        last :meth:`reset`, and its value; a refused sample is not pushed.
 
     Attributes
     ----------
@@ -121,30 +129,55 @@ class Stream:
     :func:`causal_filter` on the same array to rounding (tests: 1e-12).
     """
 
-    __slots__ = ("design", "state", "_raise")
+    __slots__ = ("design", "state", "_raise", "_k")
 
     def __init__(self, design, *, startup: str = "prefill", nonfinite: str = "raise") -> None:
         self.design = design
         self.state = _kernel_for(design, startup, nonfinite)
         self._raise = nonfinite == "raise"
+        self._k = 0  # samples handed to update / update_many since the start or the reset
 
     def reset(self) -> None:
         """Forget every sample: the next update behaves as the first one."""
         fir_reset(self.state)
+        self._k = 0
 
     def update(self, sample: float) -> float:
         """Push one sample; return the estimate at this sample."""
         x = float(sample)
-        if self._raise and not math.isfinite(x):
-            raise ValueError(f"sample = {x!r}: non-finite sample (nonfinite = 'raise')")
+        k = self._k
+        self._k = k + 1
+        if not math.isfinite(x) and (self._raise or not math.isfinite(self.state[_HELD])):
+            raise ValueError(_nonfinite_message("sample", k, x, self._raise))
         return fir_update(self.state, x)
 
     def update_many(self, samples) -> np.ndarray:
-        """Push a sequence of samples (compiled loop); return the estimates."""
+        """Push a sequence of samples (compiled loop); return the estimates.
+
+        A sample the policy refuses raises ``ValueError`` (as :meth:`update`) after the samples
+        before it have been pushed; the samples after it are not handed to the stream.
+        """
         x = np.ascontiguousarray(samples, dtype=np.float64)
         out = np.empty(x.size)
+        bad = ~np.isfinite(x)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            # "hold" refuses only a non-finite sample with no finite one before it
+            if self._raise or (k == 0 and not math.isfinite(self.state[_HELD])):
+                _stream_many(self.state, x[:k], out[:k])
+                k0 = self._k + k
+                self._k = k0 + 1
+                raise ValueError(_nonfinite_message("sample", k0, float(x[k]), self._raise))
         _stream_many(self.state, x, out)
+        self._k += x.size
         return out
+
+
+def _nonfinite_message(name: str, k: int, value: float, raise_policy: bool) -> str:
+    """The streaming twin of the batch message (``_fir.check_finite``)."""
+    why = "nonfinite = 'raise'" if raise_policy else (
+        "nonfinite = 'hold', and no earlier finite sample to hold")
+    return f"{name}[{k}] = {value!r}: non-finite sample ({why})"
 
 
 def causal_filter(design, y, *, t=None, startup: str = "prefill",
@@ -293,36 +326,42 @@ class FEstimator:
         "shrink": the exact estimator of the shorter window available (>= nu + 1 samples;
         before that the at-rest value ``-alpha u[k-1]``).
     nonfinite : {"raise", "hold"}
-        Policy for NaN/inf in ``y`` or ``u``.
+        Policy for NaN/inf in ``y`` or ``u`` ("hold": ``ValueError`` while that channel has no
+        finite sample yet). The error names the channel (``y`` or ``u_prev``), the step index
+        (counted from 0 over the calls to :meth:`update`, refused ones included, since
+        construction or the last :meth:`reset`) and the value; a refused step pushes nothing.
 
     References
     ----------
     .. [P] paper eqs. (integral), (integral_2) corrected in NOTES.md "Algebraic estimators".
     """
 
-    __slots__ = ("nu", "n", "dt", "alpha", "state_y", "state_u", "_raise")
+    __slots__ = ("nu", "n", "dt", "alpha", "state_y", "state_u", "_raise", "_k")
 
     def __init__(self, nu: int, n: int, dt: float, alpha: float, *, startup: str = "prefill",
                  nonfinite: str = "raise") -> None:
-        a = float(alpha) if np.isscalar(alpha) else math.nan
-        if not math.isfinite(a):
-            raise ValueError(f"alpha = {alpha!r}: must be finite")
+        a = _number(finite, "alpha", alpha)
         self.state_y, self.state_u = _f_kernels(nu, n, dt, startup, nonfinite)
         self.nu, self.n, self.dt, self.alpha = int(nu), int(n), float(dt), a
         self._raise = nonfinite == "raise"
+        self._k = 0  # calls to update since the start or the last reset
 
     def reset(self) -> None:
         """Forget every sample."""
         fir_reset(self.state_y)
         fir_reset(self.state_u)
+        self._k = 0
 
     def update(self, y: float, u_prev: float) -> float:
         """Push the output ``y[k]`` and the input ``u[k-1]`` held over ``[t_{k-1}, t_k)``;
         return ``F_hat[k]``."""
         yv, uv = float(y), float(u_prev)
-        if self._raise and not (math.isfinite(yv) and math.isfinite(uv)):
-            raise ValueError(
-                f"y = {yv!r}, u_prev = {uv!r}: non-finite sample (nonfinite = 'raise')")
+        k = self._k
+        self._k = k + 1
+        if not (math.isfinite(yv) and math.isfinite(uv)):
+            for name, v, ks in (("y", yv, self.state_y), ("u_prev", uv, self.state_u)):
+                if not math.isfinite(v) and (self._raise or not math.isfinite(ks[_HELD])):
+                    raise ValueError(_nonfinite_message(name, k, v, self._raise))
         return f_update(self.state_y, self.state_u, self.alpha, yv, uv)
 
 
@@ -358,13 +397,9 @@ def estimate_f(y, u, *, nu: int, n: int, dt: float, alpha: float, u_before: floa
         if t.shape != y.shape:
             raise ValueError(f"t: shape {t.shape} differs from y's {y.shape}")
         check_timestamps(t, dt)
-    a = float(alpha) if np.isscalar(alpha) else math.nan
-    if not math.isfinite(a):
-        raise ValueError(f"alpha = {alpha!r}: must be finite")
+    a = _number(finite, "alpha", alpha)
     ky, ku = _f_kernels(nu, n, dt, startup, nonfinite)
-    ub = float(u_before)
-    if not math.isfinite(ub):
-        raise ValueError(f"u_before = {u_before!r}: must be finite")
+    ub = _number(finite, "u_before", u_before)
     if nonfinite == "raise":
         check_finite(u[:-1], "raise", "u")  # the error names u's own index
     up = check_finite(np.concatenate(([ub], u[:-1])), nonfinite, "u_prev")  # u[k-1] with y[k]
