@@ -9,6 +9,7 @@ sympy (gain formulas), or a peer controller measured on the same runs (the class
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -50,6 +51,87 @@ def rk4(f, x, h, steps):
 def designed_error(a_mat: np.ndarray, x0: np.ndarray, t: np.ndarray, row: int) -> np.ndarray:
     """Component ``row`` of x(t) = expm(A t) x0 (the designed linear error dynamics)."""
     return np.array([(expm(a_mat * tt) @ x0)[row] for tt in t])
+
+
+#: The error-equation bounds below rest on identities of the sampled loop, exact up to rounding
+#: (the recursion reproduces the runs' errors to ~1e-15); this relative margin covers rounding
+#: only, nothing else.
+ROUNDING = 1e-9
+
+
+def sampled_error_model(nu: int, kp: float, ki: float, kd: float, dt: float):
+    """The exact sampled error equation of the intelligent law under zero-order hold.
+
+    State ``z_k = (I_{k-1}, e_k)`` (nu = 1) or ``(I_{k-1}, e_k, e'_k)`` (nu = 2), with
+    ``I_k = I_{k-1} + e_k dt`` the controller's integral (rectangle rule, includes ``e_k``).
+    On ``[t_k, t_{k+1})`` the plant gives ``y^(nu) = F(t) + alpha u_k`` (this defines F, the
+    ultra-local model's lumped term, relative to the controller's output ``u_k``) and the law sets
+    ``alpha u_k = -(F_hat_k - r^(nu)_k + Kp e_k + Ki I_k [+ Kd e'_hat_k])``. Integrating the
+    interval exactly, with ``w_k = -(Kp e_k + Ki I_k [+ Kd e'_k])``:
+
+    * nu = 1: ``e_{k+1} = e_k + dt (w_k + d_k)``, ``d_k`` from :func:`nu1_disturbance`;
+    * nu = 2: ``e'_{k+1} = e'_k + dt (w_k + d1_k)``, ``e_{k+1} = e_k + dt e'_k
+      + dt^2 / 2 (w_k + d2_k)``: ``d1`` and ``d2`` are the interval's mean of
+      ``F - F_hat_k - (r'' - r''_k) + Kd (e'_k - e'_hat_k)``, plain and weighted by
+      ``2 (dt - s) / dt^2`` (``test_mass_with_friction...`` forms them).
+
+    Returns ``(A, [B_i], C)``: ``z_{k+1} = A z_k + sum_i B_i d_i,k`` and ``e_k = C z_k``, so
+    ``e_k = e_free_k + sum_i sum_j C A^(k-1-j) B_i d_i,j`` (:func:`excursion_envelope`).
+    """
+    h = dt
+    if nu == 1:
+        shift, inputs = np.array([[1.0, h], [0.0, 1.0]]), [np.array([0.0, h])]
+        w = np.array([-ki, -(kp + h * ki)])  # Ki I_k = Ki I_{k-1} + Ki h e_k
+        return shift + np.outer([0.0, h], w), inputs, np.array([0.0, 1.0])
+    shift = np.array([[1.0, h, 0.0], [0.0, 1.0, h], [0.0, 0.0, 1.0]])
+    w = np.array([-ki, -(kp + h * ki), -kd])
+    inputs = [np.array([0.0, h * h / 2, 0.0]), np.array([0.0, 0.0, h])]  # d2, d1
+    return shift + np.outer([0.0, h * h / 2, h], w), inputs, np.array([0.0, 1.0, 0.0])
+
+
+def nu1_disturbance(y, r, r_dot, u, f_hat, alpha: float, dt: float) -> np.ndarray:
+    """``d_k`` of :func:`sampled_error_model` (nu = 1) from a run's samples (index k, the last
+    sample gives only ``y`` and ``r``): the interval's mean F, ``(y_{k+1} - y_k)/dt - alpha u_k``,
+    minus the estimate ``F_hat_k``, less the reference's drift within the hold,
+    ``(r_{k+1} - r_k)/dt - r'_k``. Formed from the plant's output and the controller's output and
+    estimate, not from the law."""
+    y, r, r_dot, u, f_hat = (np.asarray(v, dtype=float) for v in (y, r, r_dot, u, f_hat))
+    return (np.diff(y) / dt - alpha * u[:-1] - f_hat[:-1]) - (np.diff(r) / dt - r_dot[:-1])
+
+
+def free_error(a: np.ndarray, c: np.ndarray, z0: np.ndarray, n: int) -> np.ndarray:
+    """``C A^k z0``, k = 0..n-1: the sampled design without disturbance from ``z0`` (with an
+    input column ``B_i`` for ``z0``: the impulse response ``h_i``)."""
+    out, z = np.empty(n), np.asarray(z0, dtype=float)
+    for k in range(n):
+        out[k] = c @ z
+        z = a @ z
+    return out
+
+
+def excursion_envelope(a: np.ndarray, inputs, c: np.ndarray, dists) -> np.ndarray:
+    """``env_k = sum_i sum_{j<k} |h_i[k-1-j]| |d_i,j|``, k = 0..n (n samples of each ``d_i``;
+    ``h_i[m] = C A^m B_i``): the most the disturbances can have moved ``e_k`` away from the free
+    response (triangle inequality on the identity of :func:`sampled_error_model`). Its maximum
+    is at most ``sum_i ||h_i||_1 max|d_i|`` (:func:`l1_norm`)."""
+    n = len(dists[0])
+    env = np.zeros(n + 1)
+    for b, d in zip(inputs, dists, strict=True):
+        env[1:] += np.convolve(np.abs(free_error(a, c, b, n)), np.abs(d))[:n]
+    return env
+
+
+def l1_norm(a: np.ndarray, b: np.ndarray, c: np.ndarray, n: int) -> float:
+    """``||h||_1 = sum_{m<n} |C A^m B|`` (an exact finite sum)."""
+    return float(np.abs(free_error(a, c, b, n)).sum())
+
+
+def assert_within(observed: np.ndarray, bound: np.ndarray) -> None:
+    """``observed_k <= bound_k`` at every sample, up to rounding (:data:`ROUNDING`; the
+    1e-15 absolute term for samples where both are zero, such as the start)."""
+    excess = observed - bound * (1.0 + ROUNDING) - 1e-15
+    k = int(np.argmax(excess))
+    assert excess[k] <= 0.0, (k, observed[k], bound[k])
 
 
 class ClassicPI:
@@ -96,15 +178,32 @@ def test_bad_parameters_raise_valueerror_with_value(kwargs, match):
         IntelligentParams(**kwargs)
 
 
-def test_gain_helper_errors():
-    with pytest.raises(ValueError, match="time_constant = None"):
-        error_dynamics_gains(1)
-    with pytest.raises(ValueError, match=r"time_constant = -1\.0 s"):
-        error_dynamics_gains(1, time_constant=-1.0)
-    with pytest.raises(ValueError, match="damping = None"):
-        error_dynamics_gains(2, natural_frequency=3.0)
-    with pytest.raises(ValueError, match="nu = 3"):
-        error_dynamics_gains(3, time_constant=1.0)
+@pytest.mark.parametrize(
+    ("nu", "kwargs", "message"),
+    [
+        (1, {}, "time_constant = None: required for nu = 1 (the error's time constant, s)"),
+        (1, dict(time_constant=-1.0), "time_constant = -1.0 s: must be > 0"),
+        (1, dict(time_constant=0.2, natural_frequency=3.0),
+         "natural_frequency = 3.0 rad/s: not used for nu = 1 (give time_constant)"),
+        (1, dict(time_constant=0.2, damping=0.7),
+         "damping = 0.7: not used for nu = 1 (give time_constant)"),
+        (1, dict(time_constant=0.2, natural_frequency=3.0, damping=0.7),
+         "natural_frequency = 3.0 rad/s, damping = 0.7: not used for nu = 1 (give time_constant)"),
+        (1, dict(time_constant=0.2, integral_pole=-2.0), "integral_pole = -2.0 1/s: must be > 0"),
+        (2, dict(natural_frequency=3.0),
+         "natural_frequency = 3.0 rad/s, damping = None: both required for nu = 2"),
+        (2, dict(natural_frequency=3.0, damping=0.7, time_constant=0.2),
+         "time_constant = 0.2 s: not used for nu = 2 (give natural_frequency, damping)"),
+        (2, dict(natural_frequency=0.0, damping=0.7), "natural_frequency = 0.0 rad/s: must be > 0"),
+        (2, dict(natural_frequency=3.0, damping=float("nan")), "damping = nan: must be finite"),
+        (3, dict(time_constant=1.0), "nu = 3: must be 1 or 2"),
+    ],
+)
+def test_gain_helper_errors_name_the_field_and_the_value(nu, kwargs, message):
+    # the whole message, not a fragment of it
+    with pytest.raises(ValueError) as info:
+        error_dynamics_gains(nu, **kwargs)
+    assert str(info.value) == message
 
 
 # ------------------------------------------------------------------------------------------
@@ -428,6 +527,7 @@ A_CUBIC, B_CUBIC, ALPHA_CUBIC = 1.0, 2.0, 1.5  # alpha/b = 0.75: alpha deliberat
 
 
 def _run_cubic(c: IntelligentController, dt: float, t_end: float, y0: float):
+    """Columns t, y, r, r', u, F_hat, int e (one row per sample k)."""
     ref = lambda t: (0.5 + 0.3 * math.sin(2.0 * t), 0.6 * math.cos(2.0 * t))  # noqa: E731
     y = y0
     out = []
@@ -436,12 +536,18 @@ def _run_cubic(c: IntelligentController, dt: float, t_end: float, y0: float):
         r, rd = ref(t)
         u = c.step(y, r, rd)
         st = c.status
-        out.append((t, y - r, st.f_hat, -A_CUBIC * y**3 + (B_CUBIC - ALPHA_CUBIC) * u, st.integral))
+        out.append((t, y, r, rd, u, st.f_hat, st.integral))
         y = rk4(lambda x, u=u: -A_CUBIC * x**3 + B_CUBIC * u, y, dt / 4, 4)
     return np.array(out)
 
 
 def _cubic_deviation(dt: float, window: int, ki_pole: float | None = None):
+    """``|e - e_design|`` at every sample from the first law step (e_design: the designed
+    continuous error dynamics from the state there) and its bound from the sampled error equation
+    (:func:`sampled_error_model`): ``|e_free - e_design| + env``, ``e_free`` the sampled design
+    from the same start (its distance to the continuous one is the sampling's share) and ``env``
+    the run's own F estimation error ``d`` (:func:`nu1_disturbance`) through ``|h|``
+    (:func:`excursion_envelope`)."""
     tau = 0.2
     g = error_dynamics_gains(1, time_constant=tau, integral_pole=ki_pole)
     c = IntelligentController(
@@ -449,32 +555,40 @@ def _cubic_deviation(dt: float, window: int, ki_pole: float | None = None):
     )
     o = _run_cubic(c, dt, 3.0, y0=1.5)
     k0 = window - 1  # first step with a full window: the law starts here
-    t, e = o[k0:, 0] - o[k0, 0], o[k0:, 1]
+    t, y, r, rd, u, f_hat, integral = o[k0:].T
+    t, e = t - t[0], y - r
     if ki_pole is None:
         ed = e[0] * np.exp(-t / tau)  # e' + Kp e = 0
     else:
         # state [I, e], I' = e, e' = -Kp e - Ki I, from the controller's own I at k0
         amat = np.array([[0.0, 1.0], [-g.ki, -g.kp]])
-        ed = designed_error(amat, np.array([o[k0, 4], e[0]]), t, 1)
-    f_res = np.abs(o[k0:, 3] - o[k0:, 2]).max()  # sampled |F - F_hat|
-    return np.abs(e - ed).max(), abs(e[0]), f_res, tau
+        ed = designed_error(amat, np.array([integral[0], e[0]]), t, 1)
+    a, inputs, c_row = sampled_error_model(1, g.kp, g.ki, 0.0, dt)
+    e_free = free_error(a, c_row, np.array([0.0, e[0]]), e.size)  # I_{k0-1} = 0
+    d = nu1_disturbance(y, r, rd, u, f_hat, ALPHA_CUBIC, dt)
+    bound = np.abs(e_free - ed) + excursion_envelope(a, inputs, c_row, [d])
+    return np.abs(e - ed), bound
 
 
 @pytest.mark.parametrize("ki_pole", [None, 2.0], ids=["iP", "iPI"])
 def test_cubic_plant_error_follows_the_designed_first_order_dynamics(ki_pole):
-    dev, e0, f_res, tau = _cubic_deviation(0.01, 10, ki_pole)
-    # Stated tolerance: the designed error trajectory is followed within 10 % of the initial
-    # error (measured 4.9 % for the iP with T = 0.09 s, alpha = 0.75 b).
-    assert dev <= 0.10 * e0
-    if ki_pole is None:
-        # and within the bound that the error equation e' = -Kp e + (F - F_hat) implies,
-        # |e - e_design| <= tau * max|F - F_hat| (sampled; measured 0.035 vs bound 0.088)
-        assert dev <= tau * f_res
+    """The error follows the designed dynamics (e' + Kp e = 0; iPI: e'' + Kp e' + Ki e = 0)
+    within the bound the error equation implies, at every sample: the sampling's share plus the
+    run's own F estimation error through the disturbance-to-error impulse response
+    (:func:`sampled_error_model`, :func:`excursion_envelope`). Its l1 form, the sampling's share
+    plus ||h||_1 max|d| (iP: ||h||_1 = tau = 0.2 s; iPI: ||s / (s^2 + 7 s + 10)||_1 = 0.217 s),
+    gives the summary: max deviation iP 0.0350 <= 0.107, iPI 0.0338 <= 0.150 (initial error
+    0.71); the per-sample bound is tighter (peak 0.048) and is the one asserted. A law that
+    drops F_hat or cancels only 90 % of it, mis-scales Kp or Ki or flips the reference term
+    exceeds it (checked by hand, 2026-11-22)."""
+    dev, bound = _cubic_deviation(0.01, 10, ki_pole)
+    assert_within(dev, bound)
     # the deviation comes from the estimator's lag: halving dt at the same window length
     # (T halved) must shrink it; first order in T gives 0.5 asymptotically (measured 0.64 at
     # this coarse step), 0.75 fails a deviation that does not vanish with T.
-    dev_half, *_ = _cubic_deviation(0.005, 10, ki_pole)
-    assert dev_half <= 0.75 * dev
+    dev_half, bound_half = _cubic_deviation(0.005, 10, ki_pole)
+    assert_within(dev_half, bound_half)
+    assert dev_half.max() <= 0.75 * dev.max()
 
 
 # ------------------------------------------------------------------------------------------
@@ -484,6 +598,7 @@ M_MASS, C_VISC, F_COUL = 2.0, 0.8, 1.5  # kg, N s/m, N
 
 
 def _run_mass(c: IntelligentController, dt: float, t_end: float):
+    """Columns t, y, v, r, r', r'', u, F_hat, e'_hat, int e (one row per sample k)."""
     x = np.array([0.3, 0.0])
 
     def f(z, u):
@@ -494,13 +609,31 @@ def _run_mass(c: IntelligentController, dt: float, t_end: float):
         t = k * dt
         r, rd, rdd = 0.5 * math.sin(t), 0.5 * math.cos(t), -0.5 * math.sin(t)
         u = c.step(float(x[0]), r, rd, rdd)
-        out.append((t, x[0] - r, x[1] - rd, c.status.integral))
+        st = c.status
+        out.append((t, x[0], x[1], r, rd, rdd, u, st.f_hat, st.error_rate, st.integral))
         x = rk4(lambda z, u=u: f(z, u), x, dt / 10, 10)
     return np.array(out)
 
 
 @pytest.mark.parametrize("ki_pole", [None, 2.0], ids=["iPD", "iPID"])
 def test_mass_with_friction_error_follows_the_designed_second_order_dynamics(ki_pole):
+    """The error follows the designed second-order dynamics (iPID: with the integral pole).
+
+    Derived bound, at every sample: the sampled error equation (:func:`sampled_error_model`,
+    nu = 2) driven by the run's own disturbances ``d1``, ``d2`` (F - F_hat over each held
+    interval, the reference's drift, and ``Kd (e' - e'_hat)``: the e' estimate's lag) through
+    ``|h|`` (:func:`excursion_envelope`). Its l1 form is loose here (max deviation iPD 0.0077
+    <= 0.055, iPID 0.0095 <= 0.107); the per-sample form asserted peaks at 0.019 and is reached
+    to 98 % (iPD) and 88 % (iPID) at some sample. A law that drops F_hat, mis-scales Kp, Ki or
+    Kd or flips the reference term exceeds it (checked by hand, 2026-11-22).
+
+    Empirical bounds (not derived; measured 2026-11-22): at each velocity reversal F jumps by
+    2 Fc / m; the estimator needs about a window to follow, an error impulse of about
+    (2 Fc / m)(T / 2), and the critically damped error responds to an impulse with a peak
+    1 / (wn e): that estimate times 2 (measured deviation 1.24x the estimate for the iPD, 1.53x
+    for the iPID), and 5 % of the initial error (measured 3.0 %, 3.7 %). They guard the
+    observed accuracy against a regression; they are not a correctness bound.
+    """
     dt, n, wn = 0.01, 10, 4.0
     g = error_dynamics_gains(2, natural_frequency=wn, damping=1.0, integral_pole=ki_pole)
     alpha = 1.0 / 1.2  # the controller guesses m = 1.2 kg (true 2 kg)
@@ -509,22 +642,28 @@ def test_mass_with_friction_error_follows_the_designed_second_order_dynamics(ki_
     )
     o = _run_mass(c, dt, 8.0)
     k0 = n - 1
-    t, e, ed = o[k0:, 0] - o[k0, 0], o[k0:, 1], o[k0:, 2]
+    t, y, v, r, rd, rdd, u, f_hat, ed_hat, integral = o[k0:].T
+    t, e, ed = t - t[0], y - r, v - rd
     if ki_pole is None:
         amat = np.array([[0.0, 1.0], [-g.kp, -g.kd]])
         e_design = designed_error(amat, np.array([e[0], ed[0]]), t, 0)
     else:
         amat = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-g.ki, -g.kp, -g.kd]])
-        e_design = designed_error(amat, np.array([o[k0, 3], e[0], ed[0]]), t, 1)
-    dev = np.abs(e - e_design).max()
-    # Tolerance from the dominant disturbance: at each velocity reversal F jumps by
-    # 2 Fc / m; the estimator needs about a window to follow, an error impulse of about
-    # (2 Fc/m)(T/2), and the critically damped error responds to an impulse with a peak
-    # 1/(wn e). The e' lag and successive reversals add to it: factor 2 (measured 1.25-1.6x).
+        e_design = designed_error(amat, np.array([integral[0], e[0], ed[0]]), t, 1)
+    dev = np.abs(e - e_design)
+    # derived: the interval means of F - F_hat (plain: velocity increment; weighted:
+    # position increment), less the reference's, plus the e' estimate's error times Kd
+    lag = g.kd * (ed[:-1] - ed_hat[:-1])
+    base = alpha * u[:-1] + f_hat[:-1] - rdd[:-1]
+    d1 = np.diff(v) / dt - np.diff(rd) / dt - base + lag
+    d2 = 2.0 * (np.diff(y) - dt * v[:-1] - np.diff(r) + dt * rd[:-1]) / dt**2 - base + lag
+    a, inputs, c_row = sampled_error_model(2, g.kp, g.ki, g.kd, dt)
+    e_free = free_error(a, c_row, np.array([0.0, e[0], ed[0]]), e.size)  # I_{k0-1} = 0
+    assert_within(dev, np.abs(e_free - e_design) + excursion_envelope(a, inputs, c_row, [d2, d1]))
+    # empirical (docstring)
     t_win = (n - 1) * dt
-    bound = 2.0 * (2.0 * F_COUL / M_MASS) * (t_win / 2.0) / (wn * math.e)
-    assert dev <= bound
-    assert dev <= 0.05 * abs(e[0])  # and within 5 % of the initial error (measured 3-4 %)
+    assert dev.max() <= 2.0 * (2.0 * F_COUL / M_MASS) * (t_win / 2.0) / (wn * math.e)
+    assert dev.max() <= 0.05 * abs(e[0])
 
 
 # ------------------------------------------------------------------------------------------
@@ -533,17 +672,22 @@ def test_mass_with_friction_error_follows_the_designed_second_order_dynamics(ki_
 A_DRAG, B_NOM = 0.5, 2.0
 
 
-def run_gain_change(ctrl, factor: float, delay: int, dt: float = 0.01, t_end: float = 10.0):
+def run_gain_change(ctrl, factor: float, delay: int, dt: float = 0.01, t_end: float = 10.0,
+                    record: list | None = None):
     """y' = -a y|y| + b(t) u(t - delay dt), b = B_NOM, then factor * B_NOM from t = 4 s.
 
-    Returns the max |e| over t in [1, t_end) (after the start-up)."""
+    Returns the max |e| over t in [1, t_end] (after the start-up). ``record``, if given, receives
+    one row (y, r, r', u, F_hat) per sample k (the last row: y and r only)."""
     y = 1.0
     queue = [0.0] * delay
     errs = []
-    for k in range(int(round(t_end / dt))):
+    nk = int(round(t_end / dt))
+    for k in range(nk):
         t = k * dt
         r, rd = 1.0 + 0.5 * math.sin(0.8 * t), 0.4 * math.cos(0.8 * t)
         queue.append(ctrl.step(y, r, rd))
+        if record is not None:
+            record.append((y, r, rd, queue[-1], ctrl.status.f_hat))
         ua = queue.pop(0)
         b = B_NOM * (1.0 if t < 4.0 else factor)
         y = rk4(lambda x, b=b, ua=ua: -A_DRAG * x * abs(x) + b * ua, y, dt / 4, 4)
@@ -551,6 +695,8 @@ def run_gain_change(ctrl, factor: float, delay: int, dt: float = 0.01, t_end: fl
             return math.inf
         if t + dt >= 1.0:
             errs.append(abs(y - 1.0 - 0.5 * math.sin(0.8 * (t + dt))))
+    if record is not None:
+        record.append((y, 1.0 + 0.5 * math.sin(0.8 * nk * dt), math.nan, math.nan, math.nan))
     return max(errs)
 
 
@@ -569,11 +715,23 @@ def test_gain_change_and_input_delay_ip_keeps_tracking_and_beats_nominal_pi(fact
     # alpha chosen at the top of the gain's range (2 b_nom): alpha/b stays in [0.67, 6.7],
     # away from the low edge that the delay moves up (alpha = b_nom diverges here with a
     # 1-sample delay once b = 3 b_nom: see the report / example)
-    ip = IP(alpha=2.0 * B_NOM, kp=5.0, dt=dt, window=10)
-    e_ip = run_gain_change(ip, factor, delay, dt)
+    alpha, kp = 2.0 * B_NOM, 5.0
+    ip = IP(alpha=alpha, kp=kp, dt=dt, window=10)
+    rec = []
+    e_ip = run_gain_change(ip, factor, delay, dt, record=rec)
     e_pi = run_gain_change(nominal_pi(dt), factor, delay, dt)
-    # stated bound: 6 % of the reference's amplitude 0.5 (measured 0.014-0.027)
-    assert e_ip <= 0.03
+    # derived bound (sampled_error_model, nu = 1, Ki = 0), at every sample from t1 = 1 s on:
+    # |e_k| <= (1 - Kp dt)^(k - k1) |e(t1)| + the run's own F - F_hat through |h|
+    # (excursion_envelope; F relative to the controller's output: the delay and the gain
+    # change are part of it). Its l1 form |e(t1)| + max|d| / Kp: measured max|e| 0.0125-0.0266
+    # <= 0.0336-0.0441.
+    y, r, rd, u, f_hat = np.array(rec)[round(1.0 / dt):].T
+    e = y - r
+    a, inputs, c_row = sampled_error_model(1, kp, 0.0, 0.0, dt)
+    d = nu1_disturbance(y, r, rd, u, f_hat, alpha, dt)
+    assert e_ip == pytest.approx(np.abs(e).max(), abs=1e-12)  # the same samples
+    e_free = free_error(a, c_row, np.array([0.0, e[0]]), e.size)
+    assert_within(np.abs(e), np.abs(e_free) + excursion_envelope(a, inputs, c_row, [d]))
     # the paper's claim, checked: the iP's worst error is below the nominal PI's on the same
     # run (measured PI 0.025-0.054)
     assert e_ip < e_pi
@@ -641,48 +799,104 @@ def test_saturation_integral_does_not_wind_up():
 # ------------------------------------------------------------------------------------------
 # the choice of alpha: y' = F(t) + b u, b unknown
 # ------------------------------------------------------------------------------------------
+class AlphaRun(NamedTuple):
+    """``worst``: max |e| over the second half (inf when |y| exceeded 1e6); ``excess``: the
+    largest ``|e_k| - bound_k`` there (as in :func:`assert_within`: <= 0 when the bound holds),
+    ``bound_k`` derived from the error equation (sampled_error_model, nu = 1, Ki = 0:
+    ``(1 - Kp dt)^(k - k1) |e_k1|`` plus the run's own F estimation error through ``|h|``; nan
+    when diverged); ``quarters``: max |e| over each quarter of the run."""
+
+    worst: float
+    excess: float
+    quarters: tuple
+
+
 def _alpha_run(ratio: float, estimator: str, window: int, b: float = 3.0, dt: float = 0.01,
-               t_end: float = 20.0) -> float:
-    """Max |e| over the second half; inf when |y| exceeds 1e6. F(t) = 0.2 + 0.3 sin t, exact ZOH
-    integral; reference sin(0.5 t)."""
-    c = IP(alpha=ratio * b, kp=2.0, dt=dt, window=window, estimator=estimator)
-    y, worst = 0.0, 0.0
+               t_end: float = 20.0) -> AlphaRun:
+    """The iP (Kp = 2 /s) on y' = F(t) + b u, F(t) = 0.2 + 0.3 sin t (exact ZOH integral),
+    alpha = ratio * b; reference sin(0.5 t)."""
+    alpha, kp = ratio * b, 2.0
+    c = IP(alpha=alpha, kp=kp, dt=dt, window=window, estimator=estimator)
+    y, rec = 0.0, []
     nk = int(round(t_end / dt))
-    for k in range(nk):
+    for k in range(nk + 1):
         t = k * dt
-        u = c.step(y, math.sin(0.5 * t), 0.5 * math.cos(0.5 * t))
+        r, rd = math.sin(0.5 * t), 0.5 * math.cos(0.5 * t)
+        if k == nk:
+            rec.append((y, r, rd, math.nan, math.nan))
+            break
+        u = c.step(y, r, rd)
+        rec.append((y, r, rd, u, c.status.f_hat))
         y += 0.3 * (math.cos(t) - math.cos(t + dt)) + 0.2 * dt + b * u * dt
         if not abs(y) < 1e6:
-            return math.inf
-        if k >= nk // 2:
-            worst = max(worst, abs(y - math.sin(0.5 * (t + dt))))
-    return worst
+            return AlphaRun(math.inf, math.nan, ())
+    y, r, rd, u, f_hat = np.array(rec).T
+    e = np.abs(y - r)
+    k1 = nk // 2 + 1  # the second half: e at t_k, k > nk / 2
+    a, inputs, c_row = sampled_error_model(1, kp, 0.0, 0.0, dt)
+    d = nu1_disturbance(y[k1:], r[k1:], rd[k1:], u[k1:], f_hat[k1:], alpha, dt)
+    bound = (np.abs(free_error(a, c_row, np.array([0.0, e[k1]]), nk + 1 - k1))
+             + excursion_envelope(a, inputs, c_row, [d]))
+    q = nk // 4
+    return AlphaRun(float(e[k1:].max()), float((e[k1:] - bound * (1.0 + ROUNDING) - 1e-15).max()),
+                    tuple(float(e[1 + i * q: 1 + (i + 1) * q].max()) for i in range(4)))
+
+
+#: "Tracks": second-half max |e| below 5 % of the reference amplitude. Every run this test calls
+#: tracking stays below 0.012; the growing one (0.22) reaches 0.45, the others diverge: the
+#: threshold classifies with a factor 4 to 9 either side, it is not fitted to a value.
+TRACKS = 0.05
+
+#: The table of the module docstring ("Stable range of alpha"), alpha/b: (max|e|, decimals
+#: printed). Checked at its printed precision: a record of these runs, not a correctness bound
+#: (a change of the controller that moves a figure must update the docstring).
+ALPHA_TABLE = {0.24: (0.006, 3), 0.26: (0.006, 3), 0.3: (0.006, 3), 0.5: (0.006, 3),
+               1.0: (0.007, 3), 2.0: (0.020, 3), 5.0: (0.062, 3), 10.0: (0.14, 2),
+               20.0: (0.34, 2), 30.0: (0.58, 2), 50.0: (1.0, 1)}
 
 
 def test_alpha_sweep_records_the_stable_range():
-    ratios = [0.2, 0.22, 0.24, 0.26, 0.3, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0]
-    worst = {r: _alpha_run(r, "algebraic", 10) for r in ratios}
-    # bounded and tracking over the issue's range 0.3 <= alpha/b <= 20: the second-half error
-    # stays below 40 % of the reference amplitude (measured: 0.006 up to alpha/b = 0.5, 0.14 at
-    # 10, 0.34 at 20: tracking slows as alpha/b grows, the estimator has to supply the missing
-    # (1 - b/alpha) part of the input through its lag)
-    for r in ratios:
-        if 0.3 <= r <= 20.0:
-            assert worst[r] < 0.4, (r, worst[r])
-    assert worst[0.5] < 0.01 and worst[1.0] < 0.01
-    # the lower edge (documented in the module docstring): diverges at 0.2, stable and tracking
-    # at 0.24 (the issue's reference figure) and 0.26
-    assert worst[0.2] == math.inf
-    assert worst[0.24] < 0.01 and worst[0.26] < 0.01
+    """The claims of the module docstring ("Stable range of alpha"), run here: bounded from
+    alpha/b = 0.24 to 50, diverged at 0.2, a growing oscillation at 0.22, the table's errors;
+    the edge at window 5 (between 0.24 and 0.28: about 0.26) and below 0.2 at window 20; the
+    simple variant's edges. Every finite run also meets the error equation's derived bound."""
+    ratios = [0.2, 0.22, *ALPHA_TABLE]
+    runs = {r: _alpha_run(r, "algebraic", 10) for r in ratios}
+    for r, run in runs.items():
+        if math.isfinite(run.worst):
+            assert run.excess <= 0.0, (r, run)
+    for r, (value, decimals) in ALPHA_TABLE.items():
+        run = runs[r]
+        assert math.isfinite(run.worst) and round(run.worst, decimals) == value, (r, run)
+    # the lower edge: diverges at 0.2; at 0.22 an oscillation that grows every quarter and ends
+    # well outside tracking (measured quarters 0.030, 0.071, 0.18, 0.45)
+    assert runs[0.2].worst == math.inf
+    q = runs[0.22].quarters
+    assert math.isfinite(runs[0.22].worst) and q[0] < q[1] < q[2] < q[3] and q[3] > TRACKS
+    # the edge moves with the window: window 5 diverges at 0.24, tracks at 0.28 (measured
+    # 0.0025; 0.26 there is the edge itself: 110 after 20 s); window 20 tracks at 0.2 (0.012)
+    edge = [_alpha_run(0.24, "algebraic", 5), _alpha_run(0.28, "algebraic", 5),
+            _alpha_run(0.2, "algebraic", 20)]
+    assert edge[0].worst == math.inf
+    for run in edge[1:]:
+        assert run.worst <= TRACKS and run.excess <= 0.0, run
     # the simple variant with window 2 (backward difference): the input recursion has the root
-    # 1 - b/alpha, stable iff alpha/b > 1/2 (closed form)
-    assert _alpha_run(0.45, "simple", 2) == math.inf
-    assert _alpha_run(0.55, "simple", 2) < 0.01
+    # 1 - b/alpha, stable iff alpha/b > 1/2 (closed form); the docstring's 0.5 and 0.52 as well
+    assert _alpha_run(0.45, "simple", 2).worst == math.inf
+    assert _alpha_run(0.5, "simple", 2).worst == math.inf  # root -1: not asymptotically stable
+    for r in (0.52, 0.55):
+        run = _alpha_run(r, "simple", 2)
+        assert run.worst <= TRACKS and run.excess <= 0.0, (r, run)
     # mixed with a windowed derivative the simple variant diverges even at alpha = b (and at 2);
-    # it tracks from alpha/b = 3 on (measured 0.006)
-    assert _alpha_run(1.0, "simple", 10) == math.inf
-    assert _alpha_run(2.0, "simple", 10) == math.inf
-    assert _alpha_run(3.0, "simple", 10) < 0.01
+    # it tracks from alpha/b = 3 on (measured 0.006), 0.05 at 20 (the docstring's figure),
+    # better than the algebraic estimator's 0.34 there
+    assert _alpha_run(1.0, "simple", 10).worst == math.inf
+    assert _alpha_run(2.0, "simple", 10).worst == math.inf
+    run = _alpha_run(3.0, "simple", 10)
+    assert run.worst <= TRACKS and run.excess <= 0.0, run
+    run = _alpha_run(20.0, "simple", 10)
+    assert run.excess <= 0.0, run
+    assert round(run.worst, 2) == 0.05 and run.worst < runs[20.0].worst
 
 
 # ------------------------------------------------------------------------------------------
@@ -765,7 +979,12 @@ def test_override_replaces_the_steps_output_against_the_previous_one():
     """intelligent_override after a step: the law at the outside estimates, limited against
     the output applied before that step (the rate limit shows it), the ring and U hold it; the
     integral is left as the step made it. Given the window's own estimates it changes nothing."""
-    from flatfree.controllers.intelligent import IST, intelligent_override
+    from flatfree.controllers.intelligent import (
+        IPAR,
+        IST,
+        MOMENT_DEGREE,
+        intelligent_override,
+    )
 
     p = _ipd_params(ki=2.0)
     s = make_state(p)
@@ -786,4 +1005,14 @@ def test_override_replaces_the_steps_output_against_the_previous_one():
     assert v == max(u_prev - 5.0 * 1e-3, -0.05) and v != u
     assert big[IST.U] == v and (big[IST.RATE] == -1.0 or big[IST.SAT] == -1.0)
     assert big[IST.INTEGRAL] == s[IST.INTEGRAL]
-    assert before[IST.K] == s[IST.K]
+    # the ring (IST docstring: header, y ring, u ring of 2 L each, every sample written twice):
+    # the step moved the head by one, the override does not; the step's u slot (both copies)
+    # holds v, the slot before it still u_prev, and nothing else in either ring changed
+    L = int(p[IPAR.L])
+    hs = int(IST.MU) + MOMENT_DEGREE + 1
+    ub, head = hs + 2 * L, int(s[IST.HEAD])
+    assert head == (int(before[IST.HEAD]) - 1) % L and big[IST.HEAD] == head
+    assert big[ub + head] == v and big[ub + head + L] == v
+    assert big[ub + head + 1] == u_prev and s[ub + head] == u
+    changed = np.nonzero(big[hs:] != s[hs:])[0] + hs
+    assert set(changed.tolist()) <= {ub + head, ub + head + L}

@@ -970,9 +970,13 @@ def error_dynamics_gains(
     p = 0.0 if integral_pole is None else positive("integral_pole", integral_pole, "1/s")
     if nu == 1:
         if time_constant is None:
-            raise ValueError("time_constant = None s: required for nu = 1")
+            raise ValueError("time_constant = None: required for nu = 1 (the error's time "
+                             "constant, s)")
         if natural_frequency is not None or damping is not None:
-            raise ValueError("natural_frequency/damping: not used for nu = 1 (give time_constant)")
+            given = [f"{name} = {value!r}{unit}" for name, value, unit in
+                     (("natural_frequency", natural_frequency, " rad/s"), ("damping", damping, ""))
+                     if value is not None]
+            raise ValueError(f"{', '.join(given)}: not used for nu = 1 (give time_constant)")
         tau = positive("time_constant", time_constant, "s")
         return ErrorDynamicsGains(kp=1.0 / tau + p, ki=p / tau, kd=0.0)
     if nu == 2:
@@ -982,7 +986,8 @@ def error_dynamics_gains(
                 "both required for nu = 2"
             )
         if time_constant is not None:
-            raise ValueError("time_constant: not used for nu = 2 (give natural_frequency, damping)")
+            raise ValueError(f"time_constant = {time_constant!r} s: not used for nu = 2 (give "
+                             "natural_frequency, damping)")
         wn = positive("natural_frequency", natural_frequency, "rad/s")
         z = positive("damping", damping, "-")
         return ErrorDynamicsGains(
