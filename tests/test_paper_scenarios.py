@@ -297,8 +297,8 @@ def test_completion_over_seeds_on_spa(scenario, at_least):
     leave at Eau Rouge, 6, 10, 15, 25 at the chicane; benchmarks/README.md "Closed loop"), the
     guard is that rate less two binomial standard deviations (sqrt(30 p (1 - p)) = 2.3 laps),
     as the laps are chaotic and may change seed by seed on another platform; ``paper-imu``
-    completes all 30 (and every seed of seeds 0-29 on the other bundled tracks, measured), and
-    each completed lap stays within the 2x target of 4 cm."""
+    completes all 30 (and, in benchmarks/README.md's sweep, every seed 0-29 on the other
+    bundled tracks), and each completed lap stays within the 2x target of 4 cm."""
     done = 0
     for seed in range(30):
         m = compute_metrics(simulate(named_scenario(scenario, track="Spa", seed=seed)))

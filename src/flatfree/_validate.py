@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-__all__ = ["finite", "positive", "positive_or_inf", "nonnegative", "in_range", "whole"]
+__all__ = ["as_real", "finite", "positive", "positive_or_inf", "nonnegative", "in_range", "whole"]
 
 
 def _fmt(name: str, value, unit: str) -> str:
@@ -14,15 +14,11 @@ def _fmt(name: str, value, unit: str) -> str:
     return f"{name} = {value!r}{u}"
 
 
-def _not_a_number(value) -> bool:
-    """True for the values ``float()`` would take but a numeric field must not: text (a TOML
-    file's ``"6"``) and booleans (``true`` is not 1)."""
-    return isinstance(value, (str, bytes, bool, np.bool_))
-
-
-def _real(value) -> float | None:
-    """``float(value)``, or None when it is not a real number (text and booleans are not)."""
-    if _not_a_number(value):
+def as_real(value) -> float | None:
+    """``float(value)``, or None when it is not one real number: text (a TOML file's ``"6"``),
+    booleans (``true`` is not 1) and arrays (``float()`` takes a one-element one) are not."""
+    if isinstance(value, (str, bytes, bool, np.bool_)) or (
+            isinstance(value, np.ndarray) and value.ndim != 0):
         return None
     try:
         return float(value)
@@ -33,7 +29,7 @@ def _real(value) -> float | None:
 def finite(name: str, value, unit: str = "") -> float:
     """Return ``float(value)``; raise ``ValueError`` if it is not a finite real number (text and
     booleans are not numbers here)."""
-    v = _real(value)
+    v = as_real(value)
     if v is None:
         raise ValueError(f"{_fmt(name, value, unit)}: expected a real number")
     if not math.isfinite(v):
@@ -51,7 +47,7 @@ def positive(name: str, value, unit: str = "") -> float:
 
 def positive_or_inf(name: str, value, unit: str = "") -> float:
     """A value > 0, ``inf`` allowed (an absent limit); NaN, <= 0 or not a number raise."""
-    v = _real(value)
+    v = as_real(value)
     if v is None:
         raise ValueError(f"{_fmt(name, value, unit)}: expected a real number > 0 (inf: no "
                          "limit)")
@@ -79,7 +75,7 @@ def in_range(name: str, value, lo: float, hi: float, unit: str = "") -> float:
 def whole(name: str, value, lo: int, unit: str = "") -> int:
     """An integer >= ``lo`` (an integral float such as a TOML ``100.0`` too); text, booleans,
     NaN, infinity and fractions raise."""
-    v = _real(value)
+    v = as_real(value)
     if v is None or not math.isfinite(v) or v != int(v) or v < lo:
         raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")
     return int(v)

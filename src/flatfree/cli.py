@@ -768,7 +768,7 @@ def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
     from flatfree.scenario import scenario_with_settings
 
     for s in settings:
-        path = s.partition("=")[0].strip()
+        path = ".".join(part.strip() for part in s.partition("=")[0].split("."))
         fixed = next((f for f in DEMO_FIXED_FIELDS if path == f or path.startswith(f + ".")),
                      None)
         if fixed is not None:

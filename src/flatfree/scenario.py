@@ -78,7 +78,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 import os
 import re
 import tomllib
@@ -88,7 +87,14 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from flatfree._validate import finite, nonnegative, positive, positive_or_inf, whole
+from flatfree._validate import (
+    as_real,
+    finite,
+    nonnegative,
+    positive,
+    positive_or_inf,
+    whole,
+)
 from flatfree.sensors import SensorChannel, SensorSuite
 
 __all__ = [
@@ -255,15 +261,11 @@ class RoadSpec:
         object.__setattr__(self, "patches", tuple(self.patches))
         points = []
         for k, pt in enumerate(self.bank_deg):
-            pair = tuple(pt) if isinstance(pt, (tuple, list)) else ()
-            numeric = len(pair) == 2 and not any(isinstance(v, (str, bytes, bool)) for v in pair)
-            try:
-                s_m, b = (float(v) for v in pair) if numeric else ((), ())
-            except (TypeError, ValueError):
-                numeric = False
-            if not numeric:  # text and booleans are not numbers (as in _validate.finite)
+            pair = [as_real(v) for v in pt] if isinstance(pt, (tuple, list)) else []
+            if len(pair) != 2 or None in pair:  # text and booleans are not numbers
                 raise ValueError(f"road.bank_deg[{k}] = {pt!r}: expected a pair "
                                  "(s [m], bank [deg])")
+            s_m, b = pair
             if not (math.isfinite(s_m) and math.isfinite(b) and abs(b) < 90.0):
                 raise ValueError(f"road.bank_deg[{k}] = {pt!r}: s must be finite and the bank "
                                  "within (-90, 90) deg")
@@ -626,19 +628,13 @@ def _annotation(path: tuple[str, ...]) -> str:
 
 def _typed(st: _Setting) -> Any:
     """The setting's value for its field: a string field takes the text as written (``name=2024``
-    is the name "2024"), a number field refuses a string or a boolean and stores an integer as
-    a float where the field is a float."""
-    dotted = ".".join(st.path)
+    is the name "2024"), a float field stores an integer as a float. (A number field's
+    validation refuses text and booleans: :mod:`flatfree._validate`.)"""
     value, ann = st.value, _annotation(st.path)
-    if value is None:
-        return None
-    if ann in ("str", "str | None") and st.text is not None:
-        return st.text if not isinstance(value, str) else value
-    if ann in ("float", "float | None", "int"):
-        if isinstance(value, (str, bool)) or not isinstance(value, numbers.Real):
-            raise ValueError(f"setting {st.label}: {dotted} = {value!r}: expected a number")
-        if ann != "int" and isinstance(value, int):
-            return float(value)
+    if ann in ("str", "str | None") and st.text is not None and not isinstance(value, str):
+        return st.text  # a number or boolean the TOML parser read: the text as written
+    if ann in ("float", "float | None") and type(value) is int:
+        return float(value)
     return value
 
 
@@ -786,7 +782,7 @@ def _check_parts(sc: Scenario, items: list[_Setting]) -> None:
 
         try:
             settings_from_mapping(sc.controller, sc.controller_settings)
-        except (TypeError, ValueError, OverflowError) as exc:
+        except (TypeError, ValueError) as exc:
             hint = ("; the scenario's controller_settings belong to its controller: also set "
                     "controller_settings={} to start from the new one's defaults"
                     if any(s.path == ("controller",) for s in ctrl) else "")
@@ -798,5 +794,5 @@ def _check_parts(sc: Scenario, items: list[_Setting]) -> None:
 
         try:
             load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides))
-        except (TypeError, ValueError, OverflowError) as exc:
+        except (TypeError, ValueError) as exc:
             raise ValueError(f"{_labels(veh)}: vehicle {sc.vehicle}: {exc}") from None

@@ -197,6 +197,15 @@ def _mu_at(s, base, patches, length, closed):
 
 
 @njit(**_JIT_LOOP)
+def _all_finite(x) -> bool:
+    """Every entry of the state ``x`` finite (a loop: compiled, no generator)."""
+    for i in range(x.shape[0]):  # noqa: SIM110
+        if not math.isfinite(x[i]):
+            return False
+    return True
+
+
+@njit(**_JIT_LOOP)
 def _time_at(table, s, i):
     """Column 1 of ``table`` interpolated linearly at ``table[:, 0] = s``; returns (value, row).
 
@@ -314,12 +323,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         t = k * dt
         for i in range(6):
             truth[i] = x[i] if i < 3 else x[off + i - 3]
-        finite = True
-        for i in range(n):
-            if not math.isfinite(x[i]):
-                finite = False
-                break
-        if not finite:
+        if not _all_finite(x):
             status = 2
             break
         seg_old = seg
@@ -449,10 +453,8 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                 x[i] = xn[i]
     else:
         k = n_steps
-        for i in range(n):  # the last plant step's result, which no step above looked at
-            if not math.isfinite(x[i]):
-                status = 2
-                break
+        if not _all_finite(x):  # the last plant step's result, which no step above looked at
+            status = 2
     ls[_LS_SEG] = seg
     ls[_LS_SEG_M] = seg_m
     ls[_LS_S_PREV] = s_prev

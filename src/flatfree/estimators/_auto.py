@@ -39,7 +39,7 @@ import numpy as np
 from numpy.polynomial import legendre as _leg
 
 from flatfree._validate import finite, nonnegative, positive
-from flatfree.estimators._fweights import _check_dt, _check_int, _number
+from flatfree.estimators._fweights import _check_dt, _check_int
 from flatfree.estimators._jacobi import JacobiDesign, _fit_operator
 
 __all__ = ["design_for", "predicted_rms", "signal_std_estimate"]
@@ -71,11 +71,11 @@ def _check_rule_inputs(dt, bandwidth_hz, noise_std, signal_std, order):
     dt = _check_dt(dt)
     order = _check_int("order", order, 0)
     nyq = 0.5 / dt
-    B = _number(finite, "bandwidth_hz", bandwidth_hz, "Hz")
+    B = finite("bandwidth_hz", bandwidth_hz, "Hz")
     if not 0.0 < B < nyq:
         raise ValueError(f"bandwidth_hz = {bandwidth_hz!r} Hz: must lie in (0, {nyq}) Hz (Nyquist)")
-    s = _number(nonnegative, "noise_std", noise_std, _SIGNAL_UNITS)
-    S = _number(positive, "signal_std", signal_std, _SIGNAL_UNITS)
+    s = nonnegative("noise_std", noise_std, _SIGNAL_UNITS)
+    S = positive("signal_std", signal_std, _SIGNAL_UNITS)
     return dt, B, s, S, order
 
 
@@ -168,7 +168,7 @@ def design_for(dt: float, *, bandwidth_hz: float, noise_std: float, signal_std: 
     if max_delay is None:
         max_lag = md = math.inf
     else:
-        md = _number(nonnegative, "max_delay", max_delay, "s")
+        md = nonnegative("max_delay", max_delay, "s")
         max_lag = md / dt + 1e-9
         md = md * (1.0 + 1e-12)
     # longest window worth trying: 4 periods of the bandwidth (bias dominates beyond)
@@ -250,7 +250,7 @@ def signal_std_estimate(y, noise_std: float) -> float:
         non-finite sample, a ``noise_std`` that is not a finite real number >= 0 (text and
         booleans are not numbers).
     """
-    s = _number(nonnegative, "noise_std", noise_std, _SIGNAL_UNITS)
+    s = nonnegative("noise_std", noise_std, _SIGNAL_UNITS)
     y = np.asarray(y, dtype=np.float64)
     if y.ndim != 1 or y.size < 3:
         raise ValueError(f"y: expected a 1-D record of at least 3 samples, got shape {y.shape}")

@@ -206,6 +206,14 @@ def _stream_many(ks, x, out):
         out[k] = fir_update(ks, x[k])
 
 
+def nonfinite_message(name: str, k: int, value: float, raise_policy: bool) -> str:
+    """The error of a sample ``name[k] = value`` that the non-finite policy refuses ("raise",
+    or "hold" with no earlier finite sample): one text for the batch and the streaming paths."""
+    why = "nonfinite = 'raise'" if raise_policy else (
+        "nonfinite = 'hold', and no earlier finite sample to hold")
+    return f"{name}[{k}] = {value!r}: non-finite sample ({why})"
+
+
 def check_finite(y: np.ndarray, nonfinite: str, name: str = "y") -> np.ndarray:
     """Apply a non-finite policy to a whole array (the batch twin of the streaming policy)."""
     code = _policy("nonfinite", nonfinite, NONFINITE)
@@ -214,10 +222,7 @@ def check_finite(y: np.ndarray, nonfinite: str, name: str = "y") -> np.ndarray:
         return y
     k = int(np.flatnonzero(bad)[0])
     if code == 0 or k == 0:
-        raise ValueError(
-            f"{name}[{k}] = {float(y[k])!r}: non-finite sample (nonfinite = {nonfinite!r}"
-            + (", and no earlier finite sample to hold)" if code == 1 else ")")
-        )
+        raise ValueError(nonfinite_message(name, k, float(y[k]), code == 0))
     idx = np.where(bad, 0, np.arange(y.size))  # hold: forward fill with the last finite sample
     np.maximum.accumulate(idx, out=idx)
     return y[idx]

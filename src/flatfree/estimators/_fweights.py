@@ -45,19 +45,9 @@ from flatfree._validate import positive
 __all__ = ["f_estimator_weights", "derivative_weights", "denoising_weights"]
 
 
-def _number(check, name: str, value, unit: str = "") -> float:
-    """``check(name, value, unit)`` (a :mod:`flatfree._validate` helper: it refuses text,
-    booleans, NaN and infinity with a ``ValueError`` naming field, value and unit) for a scalar;
-    an array (``float()`` would take a one-element one) is refused the same way."""
-    if np.ndim(value) != 0:
-        u = f" {unit}" if unit else ""
-        raise ValueError(f"{name} = {value!r}{u}: expected a real number")
-    return check(name, value, unit)
-
-
 def _check_dt(dt: float) -> float:
     """A sampling period: a finite real number > 0, s."""
-    return _number(positive, "dt", dt, "s")
+    return positive("dt", dt, "s")
 
 
 def _check_int(name: str, value, lo: int) -> int:

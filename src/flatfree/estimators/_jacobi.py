@@ -51,7 +51,7 @@ from numpy.polynomial import legendre as _leg
 from scipy.special import gammaln
 
 from flatfree._validate import finite, positive
-from flatfree.estimators._fweights import _check_dt, _check_int, _number
+from flatfree.estimators._fweights import _check_dt, _check_int
 
 __all__ = ["JacobiDesign", "jacobi_weights", "delay", "cutoff", "frequency_response"]
 
@@ -191,7 +191,7 @@ class JacobiDesign:
         object.__setattr__(self, "dt", _check_dt(self.dt))
         for name in ("kappa", "mu"):
             v = getattr(self, name)
-            fv = _number(finite, name, v)  # text, booleans, NaN, inf: ValueError
+            fv = finite(name, v)  # text, booleans, NaN, inf: ValueError
             if not fv > -1.0:
                 raise ValueError(f"{name} = {v!r}: Jacobi exponent must be > -1")
             object.__setattr__(self, name, fv)
@@ -199,7 +199,7 @@ class JacobiDesign:
         if isinstance(self.lag, str) and self.lag != "exact":
             raise ValueError(f'lag = {self.lag!r}: expected a time in s or "exact"')
         if not isinstance(self.lag, str):
-            lv = _number(finite, "lag", self.lag, "s")
+            lv = finite("lag", self.lag, "s")
             if not 0.0 <= lv <= T * (1.0 + 1e-12):
                 raise ValueError(f"lag = {self.lag!r} s: must lie in [0, T = {T!r}] s")
         if self.N == 0:
@@ -224,7 +224,7 @@ class JacobiDesign:
     def from_window(cls, T: float, dt: float, **kw) -> JacobiDesign:
         """Design with window ``T`` s: ``n = round(T / dt) + 1`` samples."""
         dt = _check_dt(dt)
-        Tv = _number(positive, "T", T, "s")
+        Tv = positive("T", T, "s")
         return cls(n=int(round(Tv / dt)) + 1, dt=dt, **kw)
 
     @classmethod
@@ -234,7 +234,7 @@ class JacobiDesign:
         The window is found by bisection on ``n`` (cutoff decreases as the window grows).
         """
         dt = _check_dt(dt)
-        fc = _number(finite, "cutoff_hz", cutoff_hz, "Hz")
+        fc = finite("cutoff_hz", cutoff_hz, "Hz")
         nyq = 0.5 / dt
         if not 0.0 < fc < nyq:
             raise ValueError(f"cutoff_hz = {cutoff_hz!r} Hz: must lie in (0, Nyquist = {nyq}) Hz")

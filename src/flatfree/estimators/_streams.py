@@ -20,8 +20,9 @@ from flatfree.estimators._fir import (
     fir_new,
     fir_reset,
     fir_update,
+    nonfinite_message,
 )
-from flatfree.estimators._fweights import _check_dt, _check_int, _number, f_estimator_weights
+from flatfree.estimators._fweights import _check_dt, _check_int, f_estimator_weights
 from flatfree.estimators._jacobi import JacobiDesign
 
 __all__ = [
@@ -41,7 +42,7 @@ def check_timestamps(t, dt: float | None = None, *, rtol: float = 1e-6) -> float
     for fewer than 2 timestamps, a non-finite timestamp (index and value), a non-positive mean
     step, and a ``dt`` or ``rtol`` that is not a finite real number (> 0, >= 0).
     """
-    rtol = _number(nonnegative, "rtol", rtol)
+    rtol = nonnegative("rtol", rtol)
     t = np.asarray(t, dtype=np.float64)
     if t.ndim != 1 or t.size < 2:
         raise ValueError(f"t: expected at least 2 timestamps in a 1-D array, got shape {t.shape}")
@@ -148,7 +149,7 @@ class Stream:
         k = self._k
         self._k = k + 1
         if not math.isfinite(x) and (self._raise or not math.isfinite(self.state[_HELD])):
-            raise ValueError(_nonfinite_message("sample", k, x, self._raise))
+            raise ValueError(nonfinite_message("sample", k, x, self._raise))
         return fir_update(self.state, x)
 
     def update_many(self, samples) -> np.ndarray:
@@ -167,17 +168,10 @@ class Stream:
                 _stream_many(self.state, x[:k], out[:k])
                 k0 = self._k + k
                 self._k = k0 + 1
-                raise ValueError(_nonfinite_message("sample", k0, float(x[k]), self._raise))
+                raise ValueError(nonfinite_message("sample", k0, float(x[k]), self._raise))
         _stream_many(self.state, x, out)
         self._k += x.size
         return out
-
-
-def _nonfinite_message(name: str, k: int, value: float, raise_policy: bool) -> str:
-    """The streaming twin of the batch message (``_fir.check_finite``)."""
-    why = "nonfinite = 'raise'" if raise_policy else (
-        "nonfinite = 'hold', and no earlier finite sample to hold")
-    return f"{name}[{k}] = {value!r}: non-finite sample ({why})"
 
 
 def causal_filter(design, y, *, t=None, startup: str = "prefill",
@@ -340,7 +334,7 @@ class FEstimator:
 
     def __init__(self, nu: int, n: int, dt: float, alpha: float, *, startup: str = "prefill",
                  nonfinite: str = "raise") -> None:
-        a = _number(finite, "alpha", alpha)
+        a = finite("alpha", alpha)
         self.state_y, self.state_u = _f_kernels(nu, n, dt, startup, nonfinite)
         self.nu, self.n, self.dt, self.alpha = int(nu), int(n), float(dt), a
         self._raise = nonfinite == "raise"
@@ -361,7 +355,7 @@ class FEstimator:
         if not (math.isfinite(yv) and math.isfinite(uv)):
             for name, v, ks in (("y", yv, self.state_y), ("u_prev", uv, self.state_u)):
                 if not math.isfinite(v) and (self._raise or not math.isfinite(ks[_HELD])):
-                    raise ValueError(_nonfinite_message(name, k, v, self._raise))
+                    raise ValueError(nonfinite_message(name, k, v, self._raise))
         return f_update(self.state_y, self.state_u, self.alpha, yv, uv)
 
 
@@ -397,9 +391,9 @@ def estimate_f(y, u, *, nu: int, n: int, dt: float, alpha: float, u_before: floa
         if t.shape != y.shape:
             raise ValueError(f"t: shape {t.shape} differs from y's {y.shape}")
         check_timestamps(t, dt)
-    a = _number(finite, "alpha", alpha)
+    a = finite("alpha", alpha)
     ky, ku = _f_kernels(nu, n, dt, startup, nonfinite)
-    ub = _number(finite, "u_before", u_before)
+    ub = finite("u_before", u_before)
     if nonfinite == "raise":
         check_finite(u[:-1], "raise", "u")  # the error names u's own index
     up = check_finite(np.concatenate(([ub], u[:-1])), nonfinite, "u_prev")  # u[k-1] with y[k]
