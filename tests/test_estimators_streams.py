@@ -405,6 +405,38 @@ def test_f_estimator_refuses_nonfinite_with_the_value():
                    alpha=1.0)
 
 
+def test_samples_that_are_not_real_numbers_are_refused_by_name():
+    # float() takes "1.0" and True, and float64 arrays turn None into NaN: none is a sample
+    d = DESIGNS[0]
+    s = Stream(d)
+    s.update(1.0)
+    with pytest.raises(ValueError, match=_whole("sample[1] = '1.0': expected a real number")):
+        s.update("1.0")
+    with pytest.raises(ValueError, match=_whole("sample[2] = True: expected a real number")):
+        s.update(True)
+    ref = Stream(d)
+    ref.update(1.0)
+    assert s.update(np.float64(2.0)) == ref.update(2.0)  # refused samples pushed nothing
+    assert s.update(3) == ref.update(3.0)  # integers are numbers
+    fe = FEstimator(1, 10, 1e-3, 1.0)
+    with pytest.raises(ValueError, match=_whole("u_prev[0] = '0': expected a real number")):
+        fe.update(0.0, "0")
+    with pytest.raises(ValueError, match=_whole("y[1] = None: expected a real number")):
+        fe.update(None, 0.0)
+    for call, text in (
+        (lambda: s.update_many(["1.0", "2.0"]),
+         "samples = ['1.0', '2.0']: expected real numbers, got dtype <U3"),
+        (lambda: causal_filter(d, [1.0, None, 2.0]),
+         "y = [1.0, None, 2.0]: expected real numbers, got dtype object"),
+        (lambda: differentiate(np.ones(50, dtype=bool), 1e-3, bandwidth_hz=2.0, noise_std=0.01),
+         "y (shape (50,)): expected real numbers, got dtype bool"),
+        (lambda: estimate_f(np.zeros(3), [0, 1j, 0], nu=1, n=3, dt=1e-3, alpha=1.0),
+         "u = [0, 1j, 0]: expected real numbers, got dtype complex128"),
+    ):
+        with pytest.raises(ValueError, match=_whole(text)):
+            call()
+
+
 def test_f_estimator_hold_policy_batch_equals_streaming():
     rng = np.random.default_rng(2)
     y = np.cumsum(rng.normal(size=200)) * 1e-3

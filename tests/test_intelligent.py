@@ -197,6 +197,7 @@ def test_bad_parameters_raise_valueerror_with_value(kwargs, match):
         (2, dict(natural_frequency=0.0, damping=0.7), "natural_frequency = 0.0 rad/s: must be > 0"),
         (2, dict(natural_frequency=3.0, damping=float("nan")), "damping = nan: must be finite"),
         (3, dict(time_constant=1.0), "nu = 3: must be 1 or 2"),
+        (True, dict(time_constant=1.0), "nu = True: must be 1 or 2"),
     ],
 )
 def test_gain_helper_errors_name_the_field_and_the_value(nu, kwargs, message):

@@ -6,7 +6,10 @@ import math
 
 import numpy as np
 
-__all__ = ["as_real", "finite", "positive", "positive_or_inf", "nonnegative", "in_range", "whole"]
+__all__ = [
+    "as_real", "real_array", "finite", "positive", "positive_or_inf", "nonnegative", "in_range",
+    "whole",
+]
 
 
 def _fmt(name: str, value, unit: str) -> str:
@@ -24,6 +27,18 @@ def as_real(value) -> float | None:
         return float(value)
     except (TypeError, ValueError):
         return None
+
+
+def real_array(name: str, value) -> np.ndarray:
+    """``np.asarray(value, float64)`` for arrays of real numbers; raise ``ValueError`` naming
+    ``name`` for anything else: text (``"1.0"``), booleans, complex numbers and object arrays
+    (a ``None`` among numbers, which ``float64`` would turn into a silent NaN) are not real
+    numbers here. Non-finite values pass: their policy is the caller's."""
+    a = value if isinstance(value, np.ndarray) else np.asarray(value)
+    if a.dtype.kind not in "iuf":
+        shown = f"{name} = {value!r}" if a.size <= 4 else f"{name} (shape {a.shape})"
+        raise ValueError(f"{shown}: expected real numbers, got dtype {a.dtype}")
+    return np.asarray(a, dtype=np.float64)
 
 
 def finite(name: str, value, unit: str = "") -> float:

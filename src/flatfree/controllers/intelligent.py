@@ -968,6 +968,8 @@ def error_dynamics_gains(
     .. [P] paper Section 3.2.2 (closed-loop error equation); NOTES.md "Intelligent controllers".
     """
     p = 0.0 if integral_pole is None else positive("integral_pole", integral_pole, "1/s")
+    if isinstance(nu, (bool, np.bool_)):  # True == 1: not an order
+        raise ValueError(f"nu = {nu!r}: must be 1 or 2")
     if nu == 1:
         if time_constant is None:
             raise ValueError("time_constant = None: required for nu = 1 (the error's time "

@@ -38,7 +38,7 @@ import math
 import numpy as np
 from numpy.polynomial import legendre as _leg
 
-from flatfree._validate import finite, nonnegative, positive
+from flatfree._validate import finite, nonnegative, positive, real_array
 from flatfree.estimators._fweights import _check_dt, _check_int
 from flatfree.estimators._jacobi import JacobiDesign, _fit_operator
 
@@ -251,7 +251,7 @@ def signal_std_estimate(y, noise_std: float) -> float:
         booleans are not numbers).
     """
     s = nonnegative("noise_std", noise_std, _SIGNAL_UNITS)
-    y = np.asarray(y, dtype=np.float64)
+    y = real_array("y", y)
     if y.ndim != 1 or y.size < 3:
         raise ValueError(f"y: expected a 1-D record of at least 3 samples, got shape {y.shape}")
     bad = ~np.isfinite(y)

@@ -45,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from flatfree._validate import real_array
 from flatfree._vecmath import no_refcount
 
 __all__ = ["STARTUP", "NONFINITE", "fir_new", "fir_reset", "fir_update", "fir_batch"]
@@ -82,7 +83,7 @@ def fir_new(weights, startup_weights=None, *, full: int | None = None,
     startup, nonfinite : str
         Policies, see the module docstring.
     """
-    w = np.asarray(weights, dtype=np.float64)
+    w = real_array("weights", weights)
     if w.ndim != 1 or w.size == 0 or not np.all(np.isfinite(w)):
         raise ValueError(f"weights: expected a non-empty finite 1-D array, got shape {w.shape}")
     ntaps = w.size
@@ -238,7 +239,7 @@ def fir_batch(ks: np.ndarray, y: np.ndarray) -> np.ndarray:
     check_kernel(ks)
     ntaps, full, startup = int(ks[_NTAPS]), int(ks[_FULL]), int(ks[_START])
     b = ks[_W: _W + ntaps][::-1]
-    y = np.asarray(y, dtype=np.float64)
+    y = real_array("y", y)
     if y.size == 0:
         return np.zeros(0)
     if startup == 0:

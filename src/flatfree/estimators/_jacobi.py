@@ -50,7 +50,7 @@ import numpy as np
 from numpy.polynomial import legendre as _leg
 from scipy.special import gammaln
 
-from flatfree._validate import finite, positive
+from flatfree._validate import finite, positive, real_array
 from flatfree.estimators._fweights import _check_dt, _check_int
 
 __all__ = ["JacobiDesign", "jacobi_weights", "delay", "cutoff", "frequency_response"]
@@ -305,7 +305,7 @@ def delay(design: JacobiDesign) -> float:
 
 def frequency_response(design: JacobiDesign, f_hz) -> np.ndarray:
     """Complex frequency response ``H(f) = sum_i w_i exp(-j 2 pi f i dt)`` of the FIR filter."""
-    f = np.atleast_1d(np.asarray(f_hz, dtype=np.float64))
+    f = np.atleast_1d(real_array("f_hz", f_hz))
     i = np.arange(design.n, dtype=np.float64)
     return np.exp(-2j * np.pi * np.outer(f, i) * design.dt) @ design.weights
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numba import njit
 
-from flatfree._validate import finite, nonnegative
+from flatfree._validate import as_real, finite, nonnegative, real_array
 from flatfree.estimators._auto import design_for, signal_std_estimate
 from flatfree.estimators._fir import (
     _HELD,
@@ -34,6 +34,15 @@ __all__ = [
 SHRINK_MAX_TAPS = 2048
 
 
+def _sample_value(name: str, k: int, value) -> float:
+    """A streamed sample that is not a Python float: its value, or ``ValueError`` naming the
+    sample and its index (text and booleans are not numbers; the common path skips this)."""
+    v = as_real(value)
+    if v is None:
+        raise ValueError(f"{name}[{k}] = {value!r}: expected a real number")
+    return v
+
+
 def check_timestamps(t, dt: float | None = None, *, rtol: float = 1e-6) -> float:
     """Check that timestamps ``t`` (s) are uniform; return their period.
 
@@ -43,7 +52,7 @@ def check_timestamps(t, dt: float | None = None, *, rtol: float = 1e-6) -> float
     step, and a ``dt`` or ``rtol`` that is not a finite real number (> 0, >= 0).
     """
     rtol = nonnegative("rtol", rtol)
-    t = np.asarray(t, dtype=np.float64)
+    t = real_array("t", t)
     if t.ndim != 1 or t.size < 2:
         raise ValueError(f"t: expected at least 2 timestamps in a 1-D array, got shape {t.shape}")
     if not np.all(np.isfinite(t)):
@@ -92,7 +101,7 @@ def _kernel_for(design, startup: str, nonfinite: str) -> np.ndarray:
             return fir_new(w, lambda c: _shrunk_design(design, c), startup=startup,
                            nonfinite=nonfinite)
         return fir_new(w, startup=startup, nonfinite=nonfinite)
-    w = np.asarray(design, dtype=np.float64)
+    w = real_array("design", design)
     if _policy("startup", startup, STARTUP) == 1:
         raise ValueError('startup = "shrink" needs a JacobiDesign (raw weights have no shorter '
                          'designs)')
@@ -145,9 +154,9 @@ class Stream:
 
     def update(self, sample: float) -> float:
         """Push one sample; return the estimate at this sample."""
-        x = float(sample)
         k = self._k
         self._k = k + 1
+        x = sample if type(sample) is float else _sample_value("sample", k, sample)
         if not math.isfinite(x) and (self._raise or not math.isfinite(self.state[_HELD])):
             raise ValueError(nonfinite_message("sample", k, x, self._raise))
         return fir_update(self.state, x)
@@ -158,7 +167,7 @@ class Stream:
         A sample the policy refuses raises ``ValueError`` (as :meth:`update`) after the samples
         before it have been pushed; the samples after it are not handed to the stream.
         """
-        x = np.ascontiguousarray(samples, dtype=np.float64)
+        x = np.ascontiguousarray(real_array("samples", samples))
         out = np.empty(x.size)
         bad = ~np.isfinite(x)
         if bad.any():
@@ -194,11 +203,11 @@ def causal_filter(design, y, *, t=None, startup: str = "prefill",
     -------
     ndarray, shape (m,)
     """
-    y = np.asarray(y, dtype=np.float64)
+    y = real_array("y", y)
     if y.ndim != 1:
         raise ValueError(f"y: expected a 1-D array, got shape {y.shape}")
     if t is not None:
-        t = np.asarray(t, dtype=np.float64)
+        t = real_array("t", t)
         if t.shape != y.shape:
             raise ValueError(f"t: shape {t.shape} differs from y's {y.shape}")
         check_timestamps(t, design.dt if isinstance(design, JacobiDesign) else None)
@@ -246,13 +255,13 @@ def differentiate(y, dt, *, bandwidth_hz: float, noise_std: float, order: int = 
     ----------
     .. [MJF09] Mboup, Join, Fliess, Numer. Algorithms 50 (2009) 439-467.
     """
-    y = np.asarray(y, dtype=np.float64)
+    y = real_array("y", y)
     if y.ndim != 1:
         raise ValueError(f"y: expected a 1-D array, got shape {y.shape}")
     if np.ndim(dt) == 0:
         dtv = _check_dt(dt)
     else:
-        tt = np.asarray(dt, dtype=np.float64)
+        tt = real_array("dt", dt)
         if tt.shape != y.shape:
             raise ValueError(f"dt: timestamps of shape {tt.shape} differ from y's {y.shape}")
         dtv = check_timestamps(tt)
@@ -349,9 +358,10 @@ class FEstimator:
     def update(self, y: float, u_prev: float) -> float:
         """Push the output ``y[k]`` and the input ``u[k-1]`` held over ``[t_{k-1}, t_k)``;
         return ``F_hat[k]``."""
-        yv, uv = float(y), float(u_prev)
         k = self._k
         self._k = k + 1
+        yv = y if type(y) is float else _sample_value("y", k, y)
+        uv = u_prev if type(u_prev) is float else _sample_value("u_prev", k, u_prev)
         if not (math.isfinite(yv) and math.isfinite(uv)):
             for name, v, ks in (("y", yv, self.state_y), ("u_prev", uv, self.state_u)):
                 if not math.isfinite(v) and (self._raise or not math.isfinite(ks[_HELD])):
@@ -381,13 +391,13 @@ def estimate_f(y, u, *, nu: int, n: int, dt: float, alpha: float, u_before: floa
     ndarray, shape (m,)
         ``F_hat[k]``, equal to streaming ``update(y[k], u[k-1])`` to rounding.
     """
-    y = np.asarray(y, dtype=np.float64)
-    u = np.asarray(u, dtype=np.float64)
+    y = real_array("y", y)
+    u = real_array("u", u)
     if y.ndim != 1 or u.shape != y.shape:
         raise ValueError(f"y, u: expected 1-D arrays of one shape, got {y.shape} and {u.shape}")
     _check_int("n", n, 2)
     if t is not None:
-        t = np.asarray(t, dtype=np.float64)
+        t = real_array("t", t)
         if t.shape != y.shape:
             raise ValueError(f"t: shape {t.shape} differs from y's {y.shape}")
         check_timestamps(t, dt)
