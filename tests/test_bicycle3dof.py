@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -336,6 +337,27 @@ def test_bad_states_and_inputs():
     with pytest.raises(ValueError, match="rolling=True"):
         simulate(P406, [10.0, 0.0, 0.0], np.zeros((3, 2)), 0.01, wdot=np.zeros((3, 2)),
                  rolling=True)
+
+
+@pytest.mark.parametrize(("call", "msg"), [
+    (lambda: vector_field(P406, "1.0", [0.0, 0.0]),
+     "x = '1.0': expected real numbers, got dtype <U3"),
+    (lambda: vector_field(P406, [10.0, 0.0, 0.0], np.array([True, False])),
+     "u = array([ True, False]): expected real numbers, got dtype bool"),
+    (lambda: affine_form(P406, [10.0, None, 0.0]),
+     "x = [10.0, None, 0.0]: expected real numbers, got dtype object"),
+    (lambda: simulate(P406, [10.0, None, 0.0], np.zeros((3, 2)), 0.01),
+     "x0 = [10.0, None, 0.0]: expected real numbers, got dtype object"),
+    (lambda: simulate(P406, [10.0, 0.0, 0.0], [["1", "0"]] * 3, 0.01),
+     "u (shape (3, 2)): expected real numbers, got dtype <U1"),
+    (lambda: simulate(P406, [10.0, 0.0, 0.0], np.zeros((3, 2)), 0.01,
+                      wdot=np.zeros((3, 2), dtype=bool)),
+     "wdot (shape (3, 2)): expected real numbers, got dtype bool"),
+])
+def test_arrays_that_are_not_real_numbers_are_refused_by_name(call, msg):
+    # float64 reads "1.0" and True as numbers and a None as a silent NaN: refused, by name
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        call()
 
 
 def test_layouts():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -399,3 +400,18 @@ def test_check_reference_speeds():
     with pytest.raises(ValueError, match="> 0"):
         check_reference_speeds(p, [20.0, 0.0])
     check_reference_speeds(HIGH_IZ, np.linspace(0.1, 60.0, 10))
+
+
+@pytest.mark.parametrize(("call", "msg"), [
+    (lambda: flat_outputs(P406, "1.0"), "x = '1.0': expected real numbers, got dtype <U3"),
+    (lambda: flat_output_rates(P406, [20.0, 0.0, 0.0], [True, False]),
+     "u = [True, False]: expected real numbers, got dtype bool"),
+    (lambda: singularity_ratio(P406, [10.0, None]),
+     "vx = [10.0, None]: expected real numbers, got dtype object"),
+    (lambda: check_reference_speeds(P406, "20"),
+     "vx_ref = '20': expected real numbers, got dtype <U2"),
+])
+def test_arrays_that_are_not_real_numbers_are_refused_by_name(call, msg):
+    # float64 reads "1.0" and True as numbers and a None as a silent NaN: refused, by name
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        call()

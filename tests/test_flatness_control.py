@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import re
 from types import SimpleNamespace
 
 import numba
@@ -750,6 +751,40 @@ def test_bad_references_raise():
         FlatReference(t=t, y1=v, y1_dot=z, y2=z, y2_dot=z, y2_ddot=np.full_like(t, np.nan))
     with pytest.raises(ValueError, match="expected FlatReference"):
         FlatnessController(_fp(), {"t": t})
+
+
+_T4 = [0.0, 0.1, 0.2, 0.3]
+_Z4 = np.zeros(4)
+_V4 = np.full(4, 20.0)
+
+
+@pytest.mark.parametrize(("call", "msg"), [
+    (lambda c: flat_reference(P406, ["0", "1", "2", "3"], _V4, _Z4, _Z4),
+     "t = ['0', '1', '2', '3']: expected real numbers, got dtype <U1"),
+    (lambda c: flat_reference(P406, _T4, [20.0, 20.0, None, 20.0], _Z4, _Z4),
+     "vx = [20.0, 20.0, None, 20.0]: expected real numbers, got dtype object"),
+    (lambda c: flat_reference(P406, _T4, _V4, _Z4, _Z4, vx_dot=_Z4, vy_dot=[False] * 4,
+                              r_dot=_Z4),
+     "vy_dot = [False, False, False, False]: expected real numbers, got dtype bool"),
+    (lambda c: FlatReference(t=[0.0, None, 0.2, 0.3], y1=_V4, y1_dot=_Z4, y2=_Z4, y2_dot=_Z4,
+                             y2_ddot=_Z4),
+     "t = [0.0, None, 0.2, 0.3]: expected real numbers, got dtype object"),
+    (lambda c: FlatReference(t=_T4, y1=_V4, y1_dot=_Z4, y2=_Z4, y2_dot=_Z4,
+                             y2_ddot=[0.0, None, 0.0, 0.0]),
+     "y2_ddot = [0.0, None, 0.0, 0.0]: expected real numbers, got dtype object"),
+    (lambda c: c.step("1.0", 0.1), "x = '1.0': expected real numbers, got dtype <U3"),
+    (lambda c: c.step([20.0, None, 0.0], 0.1),
+     "x = [20.0, None, 0.0]: expected real numbers, got dtype object"),
+    (lambda c: c.step([20.0, 0.0, 0.0], 0.1, applied=np.array([True, False])),
+     "applied = array([ True, False]): expected real numbers, got dtype bool"),
+])
+def test_arrays_that_are_not_real_numbers_are_refused_by_name(call, msg):
+    # float64 reads "1.0" and True as numbers and a None as a silent NaN (which step would hold
+    # as a lost measurement): refused, by name
+    ctrl = FlatnessController(_fp(), flat_reference(P406, _T4, _V4, _Z4, _Z4, vx_dot=_Z4,
+                                                    vy_dot=_Z4, r_dot=_Z4))
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        call(ctrl)
 
 
 def test_track_reference_through_the_tracks_module_closes_the_loop():

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -428,6 +429,8 @@ def test_bad_arguments_raise_value_error(models):
         m.rhs(x0[:6], u)
     with pytest.raises(ValueError, match="x = .*finite"):
         m.rhs(np.full(22, np.nan), u)
+    with pytest.raises(ValueError, match=r"^x0 has shape \(6,\)"):  # simulate's own name
+        m.simulate(x0[:6], np.tile(u, (3, 1)))
     with pytest.raises(ValueError, match="mu = -1.0"):
         m.inputs(0.0, 0.0, mu=-1.0)
     with pytest.raises(ValueError, match="inconsistent lengths"):
@@ -457,6 +460,33 @@ def test_bad_arguments_raise_value_error(models):
     )
     with pytest.raises(ValueError, match="relaxation_length_x = 0.0 m"):
         TenDoF(no_relax)
+
+
+@pytest.mark.parametrize(("call", "msg"), [
+    (lambda m, x: m.step("1.0", m.inputs(0.0, 0.0)),
+     "x = '1.0': expected real numbers, got dtype <U3"),
+    (lambda m, x: m.step(x, np.ones(8, dtype=bool)),
+     "u (shape (8,)): expected real numbers, got dtype bool"),
+    (lambda m, x: m.simulate([*x[:21], None], m.inputs(0.0, 0.0, n=3)),
+     "x0 (shape (22,)): expected real numbers, got dtype object"),
+    (lambda m, x: m.diagnostics(np.ones(22, dtype=bool), m.inputs(0.0, 0.0)),
+     "x (shape (22,)): expected real numbers, got dtype bool"),
+    (lambda m, x: m.inputs("1.0", 0.0), "tw = '1.0': expected real numbers, got dtype <U3"),
+    (lambda m, x: m.inputs(0.0, [True, False]),
+     "delta = [True, False]: expected real numbers, got dtype bool"),
+    (lambda m, x: m.inputs(0.0, 0.0, mu=[1.0, None]),
+     "mu = [1.0, None]: expected real numbers, got dtype object"),
+    (lambda m, x: m.inputs(0.0, 0.0, mu_wheels=[1.0, 1.0, None, 1.0]),
+     "mu_wheels = [1.0, 1.0, None, 1.0]: expected real numbers, got dtype object"),
+    (lambda m, x: m.inputs(0.0, 0.0, bank="0"), "bank = '0': expected real numbers, got dtype <U1"),
+    (lambda m, x: m.inputs(0.0, 0.0, e_psi_road=True),
+     "e_psi_road = True: expected real numbers, got dtype bool"),
+])
+def test_arrays_that_are_not_real_numbers_are_refused_by_name(models, call, msg):
+    # float64 reads "1.0" and True as numbers and a None as a silent NaN: refused, by name
+    m = models["bmw320i"]
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        call(m, m.initial_state(10.0).tolist())
 
 
 def test_simulate_reports_the_time_of_a_blow_up():

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -524,3 +525,24 @@ def test_other_bad_inputs_raise():
         slips(1.0, 1.0, 0.0, 0.0)
     with pytest.raises(ValueError, match="v_min"):
         slips(1.0, 1.0, 0.0, -1.0)
+
+
+@pytest.mark.parametrize(("call", "msg"), [
+    (lambda tire: fx0("1.0", 3000.0, tire), "kappa = '1.0' -: expected real numbers"),
+    (lambda tire: fy0([True, False], 3000.0, tire),
+     "alpha = [True, False] rad: expected real numbers"),
+    (lambda tire: combined(0.1, 0.1, [3000.0, None], tire),
+     "fz = [3000.0, None] N: expected real numbers"),
+    (lambda tire: slips(1.0, "1.0", 0.0, 1.0), "vxw = '1.0' m/s: expected real numbers"),
+    (lambda tire: slips(1.0, 1.0, 0.0, True), "v_min = True m/s: expected real numbers"),
+    (lambda tire: fx0(0.1, 3000.0, tire, "1.0"),
+     "mu_scale = '1.0': expected real numbers, got dtype <U3"),
+    (lambda tire: cornering_stiffness(tire, 3000.0, mu_scale=True),
+     "mu_scale = True: expected real numbers, got dtype bool"),
+    (lambda tire: friction_coefficients(tire, 3000.0, mu_scale=[None]),
+     "mu_scale = [None]: expected real numbers, got dtype object"),
+])
+def test_arrays_that_are_not_real_numbers_are_refused_by_name(call, msg):
+    # float64 reads "1.0" and True as numbers and a None as a silent NaN: refused, by name
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        call(load_tire("commonroad"))

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -322,6 +323,35 @@ def test_track_is_immutable_and_validated():
     g[3, T.GC.S] += 0.1
     with pytest.raises(ValueError, match="uniformly spaced"):
         T.Track(closed=True, geometry=g)
+
+
+_SQ = [0.0, 10.0, 10.0, 0.0]  # corners of a 10 m square
+
+
+@pytest.mark.parametrize(("call", "msg"), [
+    (lambda trk: T.Track.from_points(["0", "10", "10", "0"], [0.0, 0.0, 10.0, 10.0]),
+     "x = ['0', '10', '10', '0']: expected real numbers, got dtype <U2"),
+    (lambda trk: T.Track.from_points(_SQ, [0.0, 0.0, 10.0, None]),
+     "y = [0.0, 0.0, 10.0, None]: expected real numbers, got dtype object"),
+    (lambda trk: T.Track.from_points(_SQ, _SQ[1:] + _SQ[:1], w_left=[True] * 4),
+     "w_left = [True, True, True, True]: expected real numbers, got dtype bool"),
+    (lambda trk: T.Track(closed=True, geometry=np.ones((5, len(T.GC)), dtype=bool)),
+     f"geometry (shape (5, {len(T.GC)})): expected real numbers, got dtype bool"),
+    (lambda trk: trk.at("10"), "s = '10': expected real numbers, got dtype <U2"),
+    (lambda trk: trk.project(["20", "0"], [0.0, 0.0]),
+     "x = ['20', '0']: expected real numbers, got dtype <U2"),
+    (lambda trk: trk.project([20.0, 0.0], [True, False]),
+     "y = [True, False]: expected real numbers, got dtype bool"),
+    (lambda trk: trk.project([20.0], [0.0], psi=["0"]),
+     "psi = ['0']: expected real numbers, got dtype <U1"),
+    (lambda trk: trk.offset(None), "d = None: expected real numbers, got dtype object"),
+    (lambda trk: trk.offset(lambda s: "1"), "d(s) = '1': expected real numbers, got dtype <U1"),
+])
+def test_arrays_that_are_not_real_numbers_are_refused_by_name(call, msg):
+    # float64 reads "1.0" and True as numbers and a None as a silent NaN: refused, by name
+    trk = T.circle_track(20.0)
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        call(trk)
 
 
 def test_lvms_centerline_has_no_closure_artefact():

@@ -12,6 +12,9 @@ __all__ = [
 ]
 
 
+_F64 = np.dtype(np.float64)
+
+
 def _fmt(name: str, value, unit: str) -> str:
     u = f" {unit}" if unit and unit != "-" else ""
     return f"{name} = {value!r}{u}"
@@ -34,7 +37,13 @@ def real_array(name: str, value) -> np.ndarray:
     ``name`` for anything else: text (``"1.0"``), booleans, complex numbers and object arrays
     (a ``None`` among numbers, which ``float64`` would turn into a silent NaN) are not real
     numbers here. Non-finite values pass: their policy is the caller's."""
-    a = value if isinstance(value, np.ndarray) else np.asarray(value)
+    if type(value) is np.ndarray and value.dtype is _F64:
+        return value  # the common case, returned as np.asarray would: no copy, no checks
+    try:
+        a = value if isinstance(value, np.ndarray) else np.asarray(value)
+    except ValueError:  # a ragged list: numpy's message does not say which argument
+        raise ValueError(f"{name}: expected an array of real numbers of one shape, got "
+                         f"{value!r:.80}") from None
     if a.dtype.kind not in "iuf":
         shown = f"{name} = {value!r}" if a.size <= 4 else f"{name} (shape {a.shape})"
         raise ValueError(f"{shown}: expected real numbers, got dtype {a.dtype}")

@@ -38,7 +38,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from flatfree._validate import nonnegative
+from flatfree._validate import nonnegative, real_array
 from flatfree.trajectory import Trajectory
 
 __all__ = ["DEFAULT_STARTUP_S", "Metrics", "compute_metrics", "wrap_angle"]
@@ -50,7 +50,7 @@ DEFAULT_STARTUP_S = 1.0
 
 def wrap_angle(angle):
     """Wrap an angle [rad] (scalar or array) to (-pi, pi]."""
-    a = np.asarray(angle, dtype=np.float64)
+    a = real_array("angle", angle)
     w = -((-a + np.pi) % (2.0 * np.pi) - np.pi)
     return float(w) if np.ndim(angle) == 0 else w
 

@@ -90,6 +90,7 @@ import numpy as np
 from numba import njit
 
 from flatfree import _vecmath as vm
+from flatfree._validate import real_array
 from flatfree.vehicles.params import TP, TireParams
 
 __all__ = [
@@ -662,7 +663,7 @@ def _check_scalar_load(fz: float) -> float:
 
 
 def _check_mu(mu_scale) -> np.ndarray:
-    m = np.asarray(mu_scale, dtype=np.float64)
+    m = real_array("mu_scale", mu_scale)
     if not np.all(np.isfinite(m) & (m > 0.0)):
         raise ValueError(
             f"mu_scale = {mu_scale!r} (-): must be finite and > 0 (mu_road / mu_ref)"
@@ -672,8 +673,8 @@ def _check_mu(mu_scale) -> np.ndarray:
 
 def _as_float_array(name: str, value, unit: str) -> np.ndarray:
     try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+        a = real_array(name, value)
+    except (TypeError, ValueError):  # text, booleans, None, ragged nesting
         raise ValueError(f"{name} = {value!r} {unit}: expected real numbers") from None
     if np.any(np.isnan(a)):
         raise ValueError(f"{name} = {value!r} {unit}: contains NaN")

@@ -86,7 +86,7 @@ import math
 import numba
 import numpy as np
 
-from flatfree._validate import finite, positive
+from flatfree._validate import finite, positive, real_array
 from flatfree.models.bicycle3dof import BP, Bicycle3DoFParams, _affine
 
 __all__ = [
@@ -299,7 +299,7 @@ def input_from_flat_kernel(y1, y1d, y2, y2d, y2dd, p, wdot_f, wdot_r, margin):
 # Python API
 # --------------------------------------------------------------------------------------------
 def _state(x) -> tuple[float, float, float]:
-    arr = np.asarray(x, dtype=np.float64)
+    arr = real_array("x", x)
     if arr.shape != (3,):
         raise ValueError(
             f"x has shape {arr.shape}: expected (3,) = [vx (m/s), vy (m/s), r (rad/s)]"
@@ -373,7 +373,7 @@ def flat_output_rates(
     [paper] eqs. (affine_NL_modele), (flatness_outputs).
     """
     vx, vy, r = _state(x)
-    ua = np.asarray(u, dtype=np.float64)
+    ua = real_array("u", u)
     if ua.shape != (2,) or not np.all(np.isfinite(ua)):
         raise ValueError(f"u = {ua.tolist()}: expected 2 finite values [tw (N m), delta (rad)]")
     wf = finite("wdot_f", wdot_f, "rad/s^2")
@@ -585,7 +585,7 @@ def singularity_ratio(params: Bicycle3DoFParams, vx):
     1 far from the singular speed (and always when Iz >= lf lr m), 0 at vx*, negative below
     it. ``det Delta`` is proportional to ``D(vx) / vx``. Accepts a scalar or an array.
     """
-    v = np.asarray(vx, dtype=np.float64)
+    v = real_array("vx", vx)
     if not np.all(np.isfinite(v)):
         raise ValueError("vx: must be finite [m/s]")
     m, lf, lr = params.m, params.lf, params.lr
@@ -604,7 +604,7 @@ def check_reference_speeds(
     ``(vx*/(1 + margin), vx* (1 + margin))`` around the singular speed, or if the reference
     has speeds on both sides of vx* (it crosses the singularity). Returns None otherwise.
     """
-    v = np.atleast_1d(np.asarray(vx_ref, dtype=np.float64))
+    v = np.atleast_1d(real_array("vx_ref", vx_ref))
     if v.size == 0:
         raise ValueError("vx_ref: empty speed reference")
     if not np.all(np.isfinite(v)) or np.any(v <= 0.0):

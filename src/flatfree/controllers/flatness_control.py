@@ -133,7 +133,7 @@ import numpy as np
 from numba import float64, types
 from scipy.interpolate import CubicSpline, make_smoothing_spline
 
-from flatfree._validate import finite, positive
+from flatfree._validate import finite, positive, real_array
 from flatfree.controllers._shell import CompiledController
 from flatfree.controllers.flatness import (
     MAP_MARGIN,
@@ -364,7 +364,7 @@ class FlatReference:
     _table: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        t = np.ascontiguousarray(np.asarray(self.t, dtype=np.float64))
+        t = np.ascontiguousarray(real_array("t", self.t))
         if t.ndim != 1 or t.size < 2:
             raise ValueError(f"t has shape {t.shape}: expected (n,) with n >= 2 [s]")
         if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0.0):
@@ -372,7 +372,7 @@ class FlatReference:
         cols = [t]
         for name, unit in (("y1", "m/s"), ("y1_dot", "m/s^2"), ("y2", "kg m^2/s"),
                            ("y2_dot", "kg m^2/s^2"), ("y2_ddot", "kg m^2/s^3")):
-            a = np.asarray(getattr(self, name), dtype=np.float64)
+            a = real_array(name, getattr(self, name))
             if a.shape != t.shape:
                 raise ValueError(f"{name} has shape {a.shape}: expected {t.shape} like t")
             if not np.all(np.isfinite(a)):
@@ -496,14 +496,14 @@ def flat_reference(
         if spline != "smoothing":
             raise ValueError(f"lam = {lam!r} s^3: only used with spline='smoothing'")
         lam = positive("lam", lam, "s^3")
-    ta = np.asarray(t, dtype=np.float64)
+    ta = real_array("t", t)
     if ta.ndim != 1 or ta.size < 2:
         raise ValueError(f"t has shape {ta.shape}: expected (n,) with n >= 2 [s]")
     if not np.all(np.isfinite(ta)) or np.any(np.diff(ta) <= 0.0):
         raise ValueError("t: times must be finite and strictly increasing [s]")
 
     def arr(name, v, unit):
-        a = np.asarray(v, dtype=np.float64)
+        a = real_array(name, v)
         if a.shape != ta.shape:
             raise ValueError(f"{name} has shape {a.shape}: expected {ta.shape} like t")
         if not np.all(np.isfinite(a)):
@@ -1079,14 +1079,14 @@ class FlatnessController(CompiledController):
         ndarray, shape (2,)
             ``[tw (N m), delta (rad)]`` to hold until the next sample.
         """
-        xa = np.asarray(x, dtype=np.float64)
+        xa = real_array("x", x)
         if xa.shape != (3,):
             raise ValueError(f"x has shape {xa.shape}: expected (3,) = [vx, vy, r]")
         ref = self._reference.at(t)
         if applied is None:
             ta, da = math.nan, math.nan
         else:
-            aa = np.asarray(applied, dtype=np.float64)
+            aa = real_array("applied", applied)
             if aa.shape != (2,):
                 raise ValueError(f"applied has shape {aa.shape}: expected (2,) = [tw, delta]")
             ta, da = float(aa[0]), float(aa[1])

@@ -69,7 +69,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from flatfree._validate import finite, nonnegative, positive
+from flatfree._validate import finite, nonnegative, positive, real_array
 
 __all__ = [
     "BP",
@@ -441,8 +441,8 @@ def rk4_kernel(x0, u, dt, p, wdot, rolling):
 # --------------------------------------------------------------------------------------------
 # Python API (thin shells with checks)
 # --------------------------------------------------------------------------------------------
-def _check_state(x, *, allow_pose: bool = True) -> np.ndarray:
-    arr = np.asarray(x, dtype=np.float64)
+def _check_state(x, *, allow_pose: bool = True, name: str = "x") -> np.ndarray:
+    arr = real_array(name, x)
     sizes = (3, 6) if allow_pose else (3,)
     if arr.ndim != 1 or arr.shape[0] not in sizes:
         raise ValueError(
@@ -458,7 +458,7 @@ def _check_state(x, *, allow_pose: bool = True) -> np.ndarray:
 
 
 def _check_input(u) -> np.ndarray:
-    arr = np.asarray(u, dtype=np.float64)
+    arr = real_array("u", u)
     if arr.shape != (2,):
         raise ValueError(f"u has shape {arr.shape}: expected (2,) = [tw (N m), delta (rad)]")
     if not np.all(np.isfinite(arr)):
@@ -581,8 +581,8 @@ def simulate(
     ----------
     [paper] Section 2.1. RK4: the classical Runge-Kutta method.
     """
-    xa = _check_state(x0)
-    ua = np.ascontiguousarray(np.asarray(u, dtype=np.float64))
+    xa = _check_state(x0, name="x0")
+    ua = np.ascontiguousarray(real_array("u", u))
     if ua.ndim != 2 or ua.shape[1] != 2:
         raise ValueError(f"u has shape {ua.shape}: expected (n, 2) = [tw (N m), delta (rad)]")
     if not np.all(np.isfinite(ua)):
@@ -594,7 +594,7 @@ def simulate(
     else:
         if rolling:
             raise ValueError("wdot is given with rolling=True: the closure defines wdot itself")
-        wa = np.ascontiguousarray(np.asarray(wdot, dtype=np.float64))
+        wa = np.ascontiguousarray(real_array("wdot", wdot))
         if wa.shape != (n, 2):
             raise ValueError(f"wdot has shape {wa.shape}: expected {(n, 2)} [rad/s^2]")
         if not np.all(np.isfinite(wa)):

@@ -218,7 +218,7 @@ import numpy as np
 from numba import njit
 
 from flatfree import _vecmath as vm
-from flatfree._validate import finite, positive
+from flatfree._validate import finite, positive, real_array
 from flatfree.tires import _lanes_g_plain as _mf_lanes_g_plain
 from flatfree.tires import _lanes_general as _mf_lanes_general
 from flatfree.tires import _mf_combined_lane, mf_combined, slip_speed, slip_stiffness
@@ -952,12 +952,12 @@ def _rhs_many(xs, us, p, tpf, tpr, out):
 # --------------------------------------------------------------------------------------------
 # Python layer
 # --------------------------------------------------------------------------------------------
-def _as_state(x) -> np.ndarray:
-    a = np.asarray(x, dtype=np.float64)
+def _as_state(x, name: str = "x") -> np.ndarray:
+    a = real_array(name, x)
     if a.shape != (NX,):
-        raise ValueError(f"x has shape {a.shape}: expected ({NX},) (TenDoFState layout)")
+        raise ValueError(f"{name} has shape {a.shape}: expected ({NX},) (TenDoFState layout)")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"x = {a.tolist()}: must be finite")
+        raise ValueError(f"{name} = {a.tolist()}: must be finite")
     return np.ascontiguousarray(a)
 
 
@@ -970,7 +970,7 @@ def _complete_inputs(a: np.ndarray) -> np.ndarray:
 
 
 def _check_inputs(u, shape_what: str) -> np.ndarray:
-    a = _complete_inputs(np.ascontiguousarray(np.asarray(u, dtype=np.float64)))
+    a = _complete_inputs(np.ascontiguousarray(real_array(shape_what, u)))
     if a.shape[-1:] != (NU,):
         raise ValueError(
             f"{shape_what} has shape {a.shape}: expected last axis {NU} = "
@@ -1108,20 +1108,20 @@ class TenDoF:
             Inconsistent lengths, a non-finite value, a friction scale <= 0 or a bank angle
             of 90 deg or more.
         """
-        tw_a = np.asarray(tw, dtype=np.float64)
-        de_a = np.asarray(delta, dtype=np.float64)
+        tw_a = real_array("tw", tw)
+        de_a = real_array("delta", delta)
         if mu_wheels is None:
-            mu_a = np.asarray(mu, dtype=np.float64)
+            mu_a = real_array("mu", mu)
             if mu_a.ndim > 1:
                 raise ValueError(f"mu has shape {mu_a.shape}: expected a scalar or (n,); "
                                  "use mu_wheels for one value per wheel")
             mu_a = mu_a[..., None] * np.ones(4)
         else:
-            mu_a = np.asarray(mu_wheels, dtype=np.float64)
+            mu_a = real_array("mu_wheels", mu_wheels)
             if mu_a.ndim not in (1, 2) or mu_a.shape[-1] != 4:
                 raise ValueError(f"mu_wheels has shape {mu_a.shape}: expected (4,) or (n, 4)")
-        bank_a = np.asarray(bank, dtype=np.float64)
-        ep_a = np.asarray(e_psi_road, dtype=np.float64)
+        bank_a = real_array("bank", bank)
+        ep_a = real_array("e_psi_road", e_psi_road)
         scalars = (("tw", tw_a), ("delta", de_a), ("bank", bank_a), ("e_psi_road", ep_a))
         for name, a in scalars:
             if a.ndim > 1:
@@ -1223,7 +1223,7 @@ class TenDoF:
         ValueError
             Bad arguments, or a state became non-finite (the message gives the time).
         """
-        xa = _as_state(x0)
+        xa = _as_state(x0, "x0")
         ua = _check_inputs(u, "u")
         if ua.ndim != 2:
             raise ValueError(f"u has shape {ua.shape}: expected (n, {NU})")
@@ -1265,7 +1265,7 @@ class TenDoF:
         cornering stiffness of an axle (the paper's Figure 3) is
         ``-(fy[fl] + fy[fr]) / mean(alpha[fl], alpha[fr])`` (ISO sign).
         """
-        xa = np.ascontiguousarray(np.asarray(x, dtype=np.float64))
+        xa = np.ascontiguousarray(real_array("x", x))
         ua = _check_inputs(u, "u")
         single = xa.ndim == 1
         xs = xa[None, :] if single else xa

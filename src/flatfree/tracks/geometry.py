@@ -34,6 +34,7 @@ import numba
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
+from flatfree._validate import real_array
 from flatfree.tracks._io import MIN_SEGMENT_M, validate_polyline
 
 __all__ = [
@@ -560,7 +561,7 @@ def _build_geometry(
 
 
 def _as_1d(name: str, v, n: int | None = None) -> np.ndarray:
-    a = np.asarray(v, dtype=float)
+    a = real_array(name, v)
     if a.ndim != 1:
         raise ValueError(f"{name}: expected a 1-D array, got shape {a.shape}")
     if n is not None and a.shape[0] != n:
@@ -595,7 +596,7 @@ class Track:
     source: str = ""
 
     def __post_init__(self) -> None:
-        g = np.ascontiguousarray(self.geometry, dtype=np.float64)
+        g = np.ascontiguousarray(real_array("geometry", self.geometry))
         if g.ndim != 2 or g.shape[1] != N_GC or g.shape[0] < 4:
             raise ValueError(f"geometry: expected shape (>=4, {N_GC}), got {g.shape}")
         cols = [c for c in GC if c not in (GC.W_LEFT, GC.W_RIGHT)]
@@ -805,7 +806,7 @@ class Track:
 
         Returns a dict of arrays: ``x, y, psi, kappa, dkappa_ds, w_left, w_right``.
         """
-        sa = np.atleast_1d(np.asarray(s, dtype=float))
+        sa = np.atleast_1d(real_array("s", s))
         out = path_eval_many(self.geometry, self.closed, sa)
         names = ("x", "y", "psi", "kappa", "dkappa_ds", "w_left", "w_right")
         return {n: out[:, j] for j, n in enumerate(names)}
@@ -838,9 +839,9 @@ class Track:
         -------
         dict of arrays ``s, e_y, e_psi, kappa``.
         """
-        xs = np.ascontiguousarray(x, dtype=float)
-        ys = np.ascontiguousarray(y, dtype=float)
-        ps = np.zeros_like(xs) if psi is None else np.ascontiguousarray(psi, dtype=float)
+        xs = np.ascontiguousarray(real_array("x", x))
+        ys = np.ascontiguousarray(real_array("y", y))
+        ps = np.zeros_like(xs) if psi is None else np.ascontiguousarray(real_array("psi", psi))
         if s0 is None:
             seg = frenet_init(self.geometry, self.closed, xs[0], ys[0], ps[0]) if psi is not None \
                 else int(np.argmin(np.hypot(self.x - xs[0], self.y - ys[0])))
@@ -871,9 +872,9 @@ class Track:
         """
         s = self.s
         if callable(d):
-            dv = np.asarray(d(s), dtype=float) * np.ones_like(s)
+            dv = real_array("d(s)", d(s)) * np.ones_like(s)
         else:
-            dv = np.asarray(d, dtype=float) * np.ones_like(s)
+            dv = real_array("d", d) * np.ones_like(s)
         if dv.shape != s.shape or not np.isfinite(dv).all():
             raise ValueError(f"offset d: expected a finite scalar or {s.shape[0]} values")
         fold = dv * self.kappa >= 1.0

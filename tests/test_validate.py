@@ -1,0 +1,42 @@
+"""The shared validators of flatfree._validate: what counts as a real number or array."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from flatfree._validate import as_real, real_array
+
+
+def test_real_array_returns_float64_arrays_as_they_are_and_converts_numbers():
+    a = np.arange(3.0)
+    assert real_array("x", a) is a  # no copy on the common path
+    big = np.arange(3.0).astype(">f8")  # float64 in the other byte order: converted, equal
+    np.testing.assert_array_equal(real_array("x", big), big)
+    for value in ([1, 2, 3], np.arange(3, dtype=np.int32), np.arange(3, dtype=np.uint8), 2.5,
+                  np.float32(0.5)):
+        out = real_array("x", value)
+        assert out.dtype == np.float64
+        np.testing.assert_array_equal(out, np.asarray(value, dtype=np.float64))
+
+
+@pytest.mark.parametrize(("value", "message"), [
+    ("1.0", "x = '1.0': expected real numbers, got dtype <U3"),
+    ([True, False], "x = [True, False]: expected real numbers, got dtype bool"),
+    ([1.0, None], "x = [1.0, None]: expected real numbers, got dtype object"),
+    ([1.0, 2j], "x = [1.0, 2j]: expected real numbers, got dtype complex128"),
+    (np.zeros(5, dtype=bool), "x (shape (5,)): expected real numbers, got dtype bool"),
+    ([[1.0], [1.0, 2.0]], ("x: expected an array of real numbers of one shape, got "
+                          "[[1.0], [1.0, 2.0]]")),
+])
+def test_real_array_refuses_what_is_not_real_numbers_naming_the_field(value, message):
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        real_array("x", value)
+
+
+def test_as_real_takes_numbers_only():
+    assert as_real(3) == 3.0 and as_real(np.float32(0.5)) == 0.5 and as_real(np.array(2.0)) == 2.0
+    for value in ("1", b"1", True, np.bool_(False), np.zeros(1), None, [1.0]):
+        assert as_real(value) is None
