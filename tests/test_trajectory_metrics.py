@@ -187,56 +187,6 @@ def test_invalid_trajectories(kwargs, match):
         Trajectory(**{**base, **kwargs})
 
 
-def test_parquet_round_trip_is_exact(tmp_path):
-    tr = _traj(n=101, status=Status.LEFT_TRACK, status_time=0.05,
-               meta={"controller": "mfc-natural", "seed": 3})
-    back = Trajectory.from_parquet(tr.to_parquet(tmp_path / "run.parquet"))
-    assert back.status is Status.LEFT_TRACK and back.status_time == 0.05
-    assert back.meta["controller"] == "mfc-natural" and back.meta["seed"] == 3
-    assert back.units == tr.units
-    np.testing.assert_array_equal(back.time, tr.time)
-    for k in tr:
-        np.testing.assert_array_equal(back[k], tr[k])
-
-
-def test_from_parquet_rejects_a_foreign_file(tmp_path):
-    """A Parquet file not written by to_parquet raises a ValueError naming the file and the
-    first missing flatfree metadata key."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    path = tmp_path / "foreign.parquet"
-    table = pa.table({"time": [0.0, 1.0], "x": [1.0, 2.0]})
-    pq.write_table(table, path)
-    msg = f"{path}: not a flatfree trajectory (missing b'flatfree.units')"
-    with pytest.raises(ValueError, match=re.escape(msg)):
-        Trajectory.from_parquet(path)
-    partial = tmp_path / "partial.parquet"
-    pq.write_table(table.replace_schema_metadata({b"flatfree.units": b'{"x": "m"}'}), partial)
-    msg = f"{partial}: not a flatfree trajectory (missing b'flatfree.status')"
-    with pytest.raises(ValueError, match=re.escape(msg)):
-        Trajectory.from_parquet(partial)
-
-
-def test_csv_export_of_an_early_stop_has_its_status_time(tmp_path):
-    """The first CSV line of a run that did not complete carries status and status_time."""
-    tr = _traj(n=11, status=Status.LEFT_TRACK, status_time=0.005)
-    lines = tr.to_csv(tmp_path / "run.csv").read_text().splitlines()
-    assert lines[0] == "# status=left_track status_time=0.005"
-    assert lines[1].split(",")[0] == "time [s]"
-
-
-def test_csv_export(tmp_path):
-    """Status line, "name [unit]" header, and the values exactly (repr round trip)."""
-    tr = _traj(n=11)
-    path = tr.to_csv(tmp_path / "run.csv")
-    lines = path.read_text().splitlines()
-    assert lines[0] == "# status=completed"
-    assert lines[1].split(",")[:3] == ["time [s]", "lateral_error [m]", "yaw_error [rad]"]
-    data = np.loadtxt(path, delimiter=",", skiprows=2)
-    np.testing.assert_array_equal(data, np.column_stack([tr.time, *tr.signals.values()]))
-
-
 def test_course_error_metric_when_the_signal_is_there():
     tr = _traj()
     assert math.isnan(compute_metrics(tr).course_error_max_deg)
@@ -248,3 +198,14 @@ def test_course_error_metric_when_the_signal_is_there():
                      units={**UNITS, "course_error": "rad"})
     assert compute_metrics(tr2, startup_s=1.0).course_error_max_deg == pytest.approx(0.3)
     assert compute_metrics(tr2, startup_s=0.0).course_error_max_deg == pytest.approx(5.0)
+
+
+@pytest.mark.parametrize(("angle", "msg"), [
+    ("1.0", "angle = '1.0': expected real numbers, got dtype <U3"),
+    ([True, False], "angle = [True, False]: expected real numbers, got dtype bool"),
+    ([0.0, None], "angle = [0.0, None]: expected real numbers, got dtype object"),
+])
+def test_wrap_angle_refuses_what_is_not_real_numbers_by_name(angle, msg):
+    # float64 reads "1.0" and True as numbers and a None as a silent NaN: refused, by name
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        wrap_angle(angle)

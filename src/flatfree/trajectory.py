@@ -20,7 +20,14 @@ from typing import Any
 
 import numpy as np
 
+from flatfree._validate import finite
+
 __all__ = ["Status", "Trajectory"]
+
+
+def _sidecar(path: Path) -> Path:
+    """The JSON file beside a CSV export: ``run.csv`` -> ``run.csv.json``."""
+    return path.with_name(path.name + ".json")
 
 
 class Status(enum.Enum):
@@ -129,8 +136,9 @@ class Trajectory:
         return float(self.time[-1] - self.time[0]) if self.time.size else 0.0
 
     def after(self, t_start: float) -> Trajectory:
-        """The part of the trajectory with time >= t_start (status and meta kept)."""
-        keep = self.time >= t_start
+        """The part of the trajectory with time >= t_start [s] (status and meta kept)."""
+        t0 = finite("t_start", t_start, "s")
+        keep = self.time >= t0
         return Trajectory(
             time=self.time[keep],
             signals={k: v[keep] for k, v in self.signals.items()},
@@ -145,37 +153,96 @@ class Trajectory:
         """``{"time": ..., name: ...}``, in logging order."""
         return {"time": self.time, **self.signals}
 
+    def _description(self) -> dict[str, str]:
+        """Units, status, status time and meta as JSON texts (Parquet metadata, CSV sidecar)."""
+        import json
+
+        return {
+            "units": json.dumps({"time": "s", **dict(self.units)}),
+            "status": self.status.value,
+            "status_time": json.dumps(self.status_time),
+            "meta": json.dumps(dict(self.meta), default=str),
+        }
+
+    @classmethod
+    def _from_description(cls, path, desc: Mapping[str, str], cols: dict[str, np.ndarray],
+                          where: str) -> Trajectory:
+        """The inverse of :meth:`_description` with the file's columns."""
+        import json
+
+        missing = [k for k in ("units", "status", "status_time", "meta") if k not in desc]
+        if missing:
+            raise ValueError(f"{path}: not a flatfree trajectory (no {', '.join(missing)} in "
+                             f"{where})")
+        units = json.loads(desc["units"])
+        units.pop("time", None)
+        time = cols.pop("time")
+        return cls(time=time, signals=cols, units=units, status=Status(desc["status"]),
+                   status_time=json.loads(desc["status_time"]), meta=json.loads(desc["meta"]))
+
     def to_csv(self, path: str | Path) -> Path:
-        """Write a CSV file: a header of ``name [unit]`` and one row per sample."""
+        """Write a plain CSV file and a JSON sidecar beside it; return the CSV's path.
+
+        The CSV has one header line, ``time [s],name [unit],...``, then one row per sample
+        (every value as Python's shortest round-trip text, so :meth:`from_csv` reads the numbers
+        back exactly): any CSV reader takes it as it is (numpy's ``genfromtxt(names=True)``,
+        the ``csv`` module, pandas). The status, its time, the units and the meta, which a CSV
+        has no place for, go to ``<path>.json`` (e.g. ``run.csv.json``); :meth:`from_csv` reads
+        both.
+        """
+        import json
+
         path = Path(path)
         cols = self.to_columns()
         header = ["time [s]"] + [f"{k} [{self.units[k]}]" for k in self.signals]
-        data = np.column_stack(list(cols.values())) if cols else np.empty((0, 0))
+        data = np.column_stack(list(cols.values()))
         with path.open("w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
-            w.writerow([f"# status={self.status.value}"
-                        + (f" status_time={self.status_time!r}" if self.status_time is not None
-                           else "")])
             w.writerow(header)
             for row in data:
                 w.writerow([repr(float(x)) for x in row])
+        side = _sidecar(path)
+        side.write_text(json.dumps(self._description(), indent=1) + "\n", encoding="utf-8")
         return path
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> Trajectory:
+        """Read a file written by :meth:`to_csv` (the CSV and its ``.json`` sidecar)."""
+        import json
+
+        path = Path(path)
+        side = _sidecar(path)
+        if not side.is_file():
+            raise ValueError(f"{path}: not a flatfree trajectory (no sidecar {side.name} with "
+                             "its status and units beside it)")
+        desc = json.loads(side.read_text(encoding="utf-8"))
+        with path.open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+        if not rows:
+            raise ValueError(f"{path}: empty file (expected a header line)")
+        names = []
+        for k, head in enumerate(rows[0]):
+            name, sep, _ = head.partition(" [")
+            if not sep or not head.endswith("]"):
+                raise ValueError(f"{path}: header column {k} = {head!r}: expected 'name [unit]'")
+            names.append(name)
+        try:
+            data = np.array(rows[1:], dtype=np.float64).reshape(len(rows) - 1, len(names))
+        except ValueError:
+            raise ValueError(f"{path}: rows are not {len(names)} numbers each") from None
+        cols = {name: data[:, j].copy() for j, name in enumerate(names)}
+        if "time" not in cols:
+            raise ValueError(f"{path}: no 'time [s]' column")
+        return cls._from_description(path, desc, cols, side.name)
 
     def to_parquet(self, path: str | Path) -> Path:
         """Write a Parquet file (pyarrow); units, status and meta go into the schema metadata."""
-        import json
-
         import pyarrow as pa
         import pyarrow.parquet as pq
 
         path = Path(path)
         table = pa.table({k: pa.array(v) for k, v in self.to_columns().items()})
-        meta = {
-            b"flatfree.units": json.dumps({"time": "s", **dict(self.units)}).encode(),
-            b"flatfree.status": self.status.value.encode(),
-            b"flatfree.status_time": json.dumps(self.status_time).encode(),
-            b"flatfree.meta": json.dumps(dict(self.meta), default=str).encode(),
-        }
+        meta = {f"flatfree.{k}".encode(): v.encode() for k, v in self._description().items()}
         table = table.replace_schema_metadata({**(table.schema.metadata or {}), **meta})
         pq.write_table(table, path)
         return path
@@ -183,24 +250,14 @@ class Trajectory:
     @classmethod
     def from_parquet(cls, path: str | Path) -> Trajectory:
         """Read a file written by :meth:`to_parquet`."""
-        import json
-
         import pyarrow.parquet as pq
 
         table = pq.read_table(path)
         md = table.schema.metadata or {}
-        try:
-            units = json.loads(md[b"flatfree.units"])
-            status = Status(md[b"flatfree.status"].decode())
-            status_time = json.loads(md[b"flatfree.status_time"])
-            meta = json.loads(md[b"flatfree.meta"])
-        except KeyError as exc:
-            raise ValueError(f"{path}: not a flatfree trajectory (missing {exc})") from None
+        desc = {k.decode()[len("flatfree."):]: v.decode() for k, v in md.items()
+                if k.startswith(b"flatfree.")}
         cols = {name: table.column(name).to_numpy() for name in table.column_names}
-        time = cols.pop("time")
-        units.pop("time", None)
-        return cls(time=time, signals=cols, units=units, status=status,
-                   status_time=status_time, meta=meta)
+        return cls._from_description(path, desc, cols, "its schema metadata")
 
     def __repr__(self) -> str:
         st = "" if self.status_time is None else f" at t={self.status_time:.3f} s"

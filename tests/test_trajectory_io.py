@@ -1,0 +1,120 @@
+"""Trajectory files: CSV (plain, with a JSON sidecar) and Parquet, read back exactly."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+from flatfree.trajectory import Status, Trajectory
+
+UNITS = {"lateral_error": "m", "yaw_rate": "rad/s", "torque": "N m"}
+
+
+def _traj(n=11, **kw):
+    t = np.arange(n) * 1e-3
+    # values whose shortest repr is long (1/3, pi multiples): a lossy text would show
+    sig = {"lateral_error": np.sin(t * 1e3) / 3.0, "yaw_rate": np.pi * t,
+           "torque": np.full(n, -300.0)}
+    return Trajectory(time=t, signals=sig, units=UNITS, **kw)
+
+
+def _same(a: Trajectory, b: Trajectory) -> None:
+    assert a.names == b.names
+    np.testing.assert_array_equal(a.time, b.time)
+    for k in a.names:
+        np.testing.assert_array_equal(a[k], b[k])
+    assert dict(a.units) == dict(b.units)
+    assert (a.status, a.status_time, dict(a.meta)) == (b.status, b.status_time, dict(b.meta))
+
+
+@pytest.mark.parametrize("kw", [
+    dict(meta={"seed": 3, "scenario": "paper"}),
+    dict(status=Status.LEFT_TRACK, status_time=0.005),
+])
+def test_csv_round_trip_is_exact_with_status_and_meta(tmp_path, kw):
+    tr = _traj(**kw)
+    path = tr.to_csv(tmp_path / "run.csv")
+    _same(tr, Trajectory.from_csv(path))
+    side = json.loads((tmp_path / "run.csv.json").read_text())
+    assert side["status"] == tr.status.value
+    assert json.loads(side["status_time"]) == tr.status_time
+
+
+def test_csv_is_plain_for_common_readers(tmp_path):
+    """One header line and numbers: numpy's genfromtxt(names=True) and csv.DictReader read it
+    (a leading comment line made both take the comment for the header)."""
+    tr = _traj()
+    path = tr.to_csv(tmp_path / "run.csv")
+    lines = path.read_text().splitlines()
+    assert lines[0] == "time [s],lateral_error [m],yaw_rate [rad/s],torque [N m]"
+    assert len(lines) == 1 + len(tr)
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    assert data.dtype.names == ("time_s", "lateral_error_m", "yaw_rate_rads", "torque_N_m")
+    np.testing.assert_array_equal(data["lateral_error_m"], tr["lateral_error"])
+    with path.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [float(r["yaw_rate [rad/s]"]) for r in rows] == tr["yaw_rate"].tolist()
+
+
+def test_empty_trajectory_round_trips(tmp_path):
+    tr = _traj(n=0, status=Status.NON_FINITE, status_time=0.0)
+    _same(tr, Trajectory.from_csv(tr.to_csv(tmp_path / "empty.csv")))
+    _same(tr, Trajectory.from_parquet(tr.to_parquet(tmp_path / "empty.parquet")))
+
+
+def test_csv_reading_errors_name_the_file_and_the_problem(tmp_path):
+    tr = _traj()
+    path = tr.to_csv(tmp_path / "run.csv")
+    (tmp_path / "run.csv.json").unlink()
+    msg = (f"{path}: not a flatfree trajectory (no sidecar run.csv.json with its status and "
+           "units beside it)")
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        Trajectory.from_csv(path)
+    tr.to_csv(path)
+    text = path.read_text().splitlines()
+    path.write_text("\n".join([text[0].replace("yaw_rate [rad/s]", "yaw_rate"), *text[1:]]))
+    msg = f"{path}: header column 2 = 'yaw_rate': expected 'name [unit]'"
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        Trajectory.from_csv(path)
+    path.write_text("\n".join([*text[:3], text[3] + ",1.0"]))
+    with pytest.raises(ValueError, match=f"^{re.escape(f'{path}: rows are not 4 numbers each')}$"):
+        Trajectory.from_csv(path)
+    side = tmp_path / "run.csv.json"
+    side.write_text(json.dumps({"units": "{}", "status": "completed"}))
+    path.write_text("\n".join(text))
+    msg = f"{path}: not a flatfree trajectory (no status_time, meta in run.csv.json)"
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        Trajectory.from_csv(path)
+
+
+def test_parquet_round_trip_and_foreign_files(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    for tr in (_traj(meta={"seed": 3, "controller": "mfc-natural"}),
+               _traj(status=Status.LEFT_TRACK, status_time=0.005)):
+        _same(tr, Trajectory.from_parquet(tr.to_parquet(tmp_path / "run.parquet")))
+    path = tmp_path / "foreign.parquet"
+    table = pa.table({"time": [0.0, 1.0], "x": [1.0, 2.0]})
+    pq.write_table(table, path)
+    msg = (f"{path}: not a flatfree trajectory (no units, status, status_time, meta in its "
+           "schema metadata)")
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        Trajectory.from_parquet(path)
+    partial = tmp_path / "partial.parquet"
+    pq.write_table(table.replace_schema_metadata({b"flatfree.units": b'{"x": "m"}'}), partial)
+    msg = (f"{partial}: not a flatfree trajectory (no status, status_time, meta in its schema "
+           "metadata)")
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        Trajectory.from_parquet(partial)
+
+
+@pytest.mark.parametrize("bad", [math.nan, "1.0", None])
+def test_after_refuses_a_start_that_is_not_a_time(bad):
+    with pytest.raises(ValueError, match=r"^t_start = .*: (must be finite|expected a real number)"):
+        _traj().after(bad)
