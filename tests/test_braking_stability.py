@@ -16,7 +16,7 @@ yaw divergence starts above 30.6 m/s (peugeot406; the bicycle model with braked 
 
 References
 ----------
-[VM] shared/reference/VEHICLE_MODEL.md, sections 1.5 (load transfer), 2.3 (combined slip),
+[VM] docs/VEHICLE_MODEL.md, sections 1.5 (load transfer), 2.3 (combined slip),
      4.1 (CommonRoad set 2) and 5.5 (understeer gradient, critical speed).
 [Raj] R. Rajamani, Vehicle Dynamics and Control, 2nd ed., 2012, Ch. 3 (lateral stability).
 """

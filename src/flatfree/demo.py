@@ -16,7 +16,7 @@ The first run compiles the numba kernels (a few seconds); later runs use the on-
 
 References
 ----------
-[VM] shared/reference/VEHICLE_MODEL.md, sections 1 and 5.
+[VM] docs/VEHICLE_MODEL.md, sections 1 and 5.
 [Raj] R. Rajamani, Vehicle Dynamics and Control, 2nd ed., 2012, Ch. 3.
 """
 
@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"simulated {sim:.1f} s in {wall:.3f} s of wall time ({sim / wall:.0f}x real time); "
           f"kernels compiled or loaded from the cache in {warm:.2f} s")
     print("linear: single-track formulas with the tyres' cornering stiffness at static load "
-          "(VEHICLE_MODEL.md 5.4-5.5)")
+          "(docs/VEHICLE_MODEL.md 5.4-5.5)")
     return 0 if all(math.isfinite(res[k][0]) for k in res) else 1
 
 

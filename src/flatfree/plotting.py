@@ -27,8 +27,8 @@ Conventions: SI inside; axes labels carry the display unit (cm, deg) where the p
 
 References
 ----------
-[paper] the paper in shared/paper (Section 3.1, Figs. 2-3; Section 4, Figs. 4-6).
-[NOTES] shared/paper/NOTES.md, "Results to compare with".
+[paper] the paper (docs/README.md) (Section 3.1, Figs. 2-3; Section 4, Figs. 4-6).
+[NOTES] docs/NOTES.md, "Results to compare with".
 """
 
 from __future__ import annotations
@@ -365,7 +365,7 @@ def braking_in_turn(vehicle: str = "peugeot406", *, speed_mps: float = 20.0,
 
     References
     ----------
-    [paper] Section 3.1, Fig. 3. [VM] shared/reference/VEHICLE_MODEL.md 5.4-5.5.
+    [paper] Section 3.1, Fig. 3. [VM] docs/VEHICLE_MODEL.md 5.4-5.5.
     """
     from flatfree.models.tendof import TenDoF, Wheel
     from flatfree.tires import cornering_stiffness

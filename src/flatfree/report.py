@@ -10,8 +10,8 @@ descriptions, paths, settings, TOML text) is escaped with :func:`html.escape`.
 
 References
 ----------
-[paper] the paper in shared/paper, Section 4.
-[NOTES] shared/paper/NOTES.md, "Results to compare with".
+[paper] the paper (docs/README.md), Section 4.
+[NOTES] docs/NOTES.md, "Results to compare with".
 """
 
 from __future__ import annotations
@@ -205,7 +205,7 @@ def format_table(results: Sequence[RunResult]) -> str:
         out.append("  ".join(row[k].ljust(w) if k in _TEXT_COLUMNS else row[k].rjust(w)
                              for k, w in zip(keys, widths, strict=True)).rstrip())
     out.extend(notes)
-    out.append("paper: max errors of its Section 4 (NOTES.md 'Results to compare with'); "
+    out.append("paper: max errors of its Section 4 (docs/NOTES.md, 'Results to compare with'); "
                "agrees: our max error meets the paper's bound (completed runs only); course: "
                "CoG velocity direction vs path heading (the controller's part of the yaw error)")
     return "\n".join(out)
@@ -364,7 +364,7 @@ def write_report(
         "<h2>Comparison with the paper</h2>",
         table(results, "comparison"),
         ("<p>Paper: the maximum errors of its Section 4 (10DoF Peugeot 406, recorded track), "
-         "as corrected in NOTES.md &#8220;Results to compare with&#8221;. "
+         "as corrected in docs/NOTES.md &#8220;Results to compare with&#8221;. "
          "&#8220;agrees&#8221;: our maximum error meets the paper's bound (completed runs "
          "only: a run that left the track is not compared). &#8220;course&#8221;: the "
          "direction of the CoG velocity against the path heading, the part of the yaw error a "

@@ -79,7 +79,7 @@ References
 [P12] H. B. Pacejka, Tire and Vehicle Dynamics, 3rd ed., Butterworth-Heinemann, 2012,
       section 4.3.2, eqs. (4.E1)-(4.E67).
 [CR-tm] commonroad-vehicle-models 3.0.2, ``vehiclemodels/utils/tire_model.py``.
-[VM] shared/reference/VEHICLE_MODEL.md, sections 0, 1.6, 1.9, 2 and 3.
+[VM] docs/VEHICLE_MODEL.md, sections 0, 1.6, 1.9, 2 and 3.
 """
 
 from __future__ import annotations

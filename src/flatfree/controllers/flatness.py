@@ -74,7 +74,7 @@ References
 ----------
 [paper] B. d'Andrea-Novel, L. Menhour, M. Fliess, H. Mounier, "Some remarks on wheeled
     autonomous vehicles and the evolution of their control design", Sections 2.2-2.3
-    (the project's shared/paper/ folder).
+    (docs/README.md).
 NOTES.md "Flat outputs (Section 2.3)": the corrected singularity condition.
 """
 

@@ -117,7 +117,7 @@ References
 [paper] B. d'Andrea-Novel, L. Menhour, M. Fliess, H. Mounier, "Some remarks on wheeled
     autonomous vehicles and the evolution of their control design", Section 2.3, eqs.
     (u_B_y1_y1p_y2_y2p_y2pp), (lin_contro), Figure 2 (0.3 Cf, 0.3 Cr); Section 2.4 eq.
-    (Derivative). Corrections in the project's shared/paper/NOTES.md.
+    (Derivative). Corrections in docs/NOTES.md.
 [AM08] K. J. Astrom, R. M. Murray, Feedback Systems, Princeton 2008, Section 10.4
     (integrator windup, conditional integration).
 """

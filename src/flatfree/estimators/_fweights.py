@@ -31,7 +31,7 @@ least-squares slope (nu = 1) and curvature (nu = 2). As ``n -> infinity`` with `
 
 References
 ----------
-.. [P] paper 000_81cd509a47ab99bc, Sections 2.4 and 3.2.3; corrected in /work/shared/paper/NOTES.md.
+.. [P] paper 000_81cd509a47ab99bc, Sections 2.4 and 3.2.3; corrected in docs/NOTES.md.
 .. [MJF09] M. Mboup, C. Join, M. Fliess, "Numerical differentiation with annihilators in noisy
    environment", Numerical Algorithms 50 (2009) 439-467 (minimal estimators = least squares).
 """

@@ -55,7 +55,7 @@ References
 ----------
 [paper] B. d'Andrea-Novel, L. Menhour, M. Fliess, H. Mounier, "Some remarks on wheeled
     autonomous vehicles and the evolution of their control design", Section 2.1
-    (the project's shared/paper/ folder), with the corrections of NOTES.md.
+    (docs/README.md), with the corrections of NOTES.md.
 [Raj] R. Rajamani, Vehicle Dynamics and Control, 2nd ed., 2012, Ch. 2 (bicycle model) and
     Ch. 3 (understeer gradient).
 """

@@ -3,7 +3,7 @@
 A two-track (four-wheel) car with a sprung body that heaves, rolls and pitches on springs,
 dampers and anti-roll bars, four spinning wheels, per-wheel vertical loads and per-wheel
 combined-slip Magic Formula tyres (:mod:`flatfree.tires`), aerodynamic drag and lift, and
-rolling resistance. Equations: ``shared/reference/VEHICLE_MODEL.md`` ([VM]) sections 1.1-1.9;
+rolling resistance. Equations: ``docs/VEHICLE_MODEL.md`` ([VM]) sections 1.1-1.9;
 the numbered choices below are this module's, and each says why.
 
 Frame, reference point and signs
@@ -199,7 +199,7 @@ diagnostic plain slip ratios only in its last stage (the one it leaves in ``diag
 
 References
 ----------
-[VM] shared/reference/VEHICLE_MODEL.md, sections 0, 1.1-1.9, 3 and 5.
+[VM] docs/VEHICLE_MODEL.md, sections 0, 1.1-1.9, 3 and 5.
 [P12] H. B. Pacejka, Tire and Vehicle Dynamics, 3rd ed., 2012, section 4.3.2 (Magic Formula)
       and section 7.2 (single-contact-point transient tyre model, relaxation length).
 [Raj] R. Rajamani, Vehicle Dynamics and Control, 2nd ed., 2012, Ch. 2 and Ch. 4.
@@ -1021,7 +1021,7 @@ class TenDoF:
 
     References
     ----------
-    [VM] shared/reference/VEHICLE_MODEL.md sections 1, 3, 5.
+    [VM] docs/VEHICLE_MODEL.md sections 1, 3, 5.
     """
 
     State = TenDoFState

@@ -113,7 +113,7 @@ References
 [QSS] N. R. Kapania, J. Subosits, J. C. Gerdes, "A sequential two-step algorithm for fast
      generation of vehicle racing trajectories", J. Dyn. Sys. Meas. Control 138(9), 2016
      (lateral limit v = sqrt(mu g / |kappa|), forward and backward passes on a friction circle).
-[VM] shared/reference/VEHICLE_MODEL.md 1.9 (aerodynamic drag 1/2 rho C_d A v^2, rolling
+[VM] docs/VEHICLE_MODEL.md 1.9 (aerodynamic drag 1/2 rho C_d A v^2, rolling
      resistance f_r m g); the power cap of the drive torque:
      :class:`flatfree.actuators.ActuatorParams`.
 [R79] UN Regulation No. 79 (steering equipment), 03 series, automatically commanded steering
@@ -460,7 +460,7 @@ def drive_acceleration(v, vehicle: VehicleParams) -> np.ndarray:
 
     References
     ----------
-    .. [VM] shared/reference/VEHICLE_MODEL.md 1.9 (drag, rolling resistance); the power cap:
+    .. [VM] docs/VEHICLE_MODEL.md 1.9 (drag, rolling resistance); the power cap:
        :class:`flatfree.actuators.ActuatorParams`.
     """
     drv = _drive_array(vehicle)
