@@ -307,3 +307,29 @@ def test_completion_over_seeds_on_spa(scenario, at_least):
             if scenario == "paper-imu":
                 assert m.lateral_error_max_m <= 0.04, (seed, m.lateral_error_max_m)
     assert done >= at_least, done
+
+
+def test_named_scenario_takes_another_car_with_its_tuning():
+    """named_scenario(vehicle=...) gives the natural-output designs the car's own settings
+    (alpha_lat), as `flatfree run --vehicle` does; with_(vehicle=...) keeps the tuning."""
+    from flatfree.scenarios import natural_settings
+
+    base = named_scenario("paper")
+    assert base.vehicle == "peugeot406"
+    assert dict(base.controller_settings) == natural_settings("peugeot406")
+    other = named_scenario("paper-imu", vehicle="dallara_av21", track="LVMS")
+    assert other.vehicle == "dallara_av21"
+    assert dict(other.controller_settings) == natural_settings("dallara_av21", imu=True)
+    assert other.controller_settings["alpha_lat"] == 60.0  # the peugeot406's is the default
+    assert "dallara_av21" in other.description
+    assert named_scenario("paper").with_(vehicle="dallara_av21").controller_settings == \
+        base.controller_settings
+    # the flatness designs carry no per-car settings: only the car changes
+    flat = named_scenario("paper-mismatch", vehicle="bmw320i")
+    assert flat.vehicle == "bmw320i"
+    assert flat.controller_settings == named_scenario("paper-mismatch").controller_settings
+    with pytest.raises(ValueError, match=r"^vehicle = 'peugeot406': the recorded scenario's car "
+                                         r"is the recording's, dallara_av21$"):
+        named_scenario("recorded", vehicle="peugeot406")
+    with pytest.raises(ValueError, match=r"^vehicle = 3: expected a bundled preset's name"):
+        named_scenario("paper", vehicle=3)

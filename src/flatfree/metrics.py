@@ -22,7 +22,9 @@ Definitions (the same for every controller, so that comparisons are fair):
   reference model's (benchmarks/README.md "Closed loop").
 - **speed error** [m/s]: ``vx - vx_ref``.
 - **steering rate** [rad/s]: the time derivative of the applied steer angle ``steer``
-  (finite differences on the logged grid).
+  (finite differences on the logged grid: a log coarser than the control period averages the
+  rate over each log interval, which hides part of a steer that chatters between control
+  steps; log every control step to see it at the control rate).
 - **torque effort** [N m]: the RMS of the applied wheel torque ``torque``; and its rate
   [N m/s], the RMS of the time derivative of ``torque`` (finite differences on the logged grid,
   as the steering rate), which shows a chattering torque that the RMS hides.

@@ -189,7 +189,7 @@ SCENARIO_NAMES: tuple[str, ...] = tuple(
 
 
 def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
-                   duration_s: float | None = None) -> Scenario:
+                   duration_s: float | None = None, vehicle: str | None = None) -> Scenario:
     """The named scenario ``name`` (:data:`SCENARIO_NAMES`).
 
     Parameters
@@ -203,6 +203,13 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         Seed of the sensor noise.
     duration_s : float, optional
         Stop earlier (default: one lap, or the recording).
+    vehicle : str, optional
+        Another car for the track scenarios (a bundled preset's name or a vehicle TOML file;
+        default ``peugeot406``, the paper's car). The natural-output designs then take the
+        settings tuned for it (:func:`natural_settings`: alpha_lat is tied to the car), as
+        ``flatfree run --vehicle`` does. (``scenario.with_(vehicle=...)`` changes the car and
+        keeps every other setting, the tuning included.) An error for the recorded scenarios,
+        whose car is the recording's.
 
     Returns
     -------
@@ -218,6 +225,9 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
     if base == _RECORDED:
         if track is not None:
             raise ValueError(f"track = {track!r}: the recorded scenario follows {RECORDING}")
+        if vehicle is not None:
+            raise ValueError(f"vehicle = {vehicle!r}: the recorded scenario's car is the "
+                             "recording's, dallara_av21")
         return Scenario(
             name=name, description="dallara_av21 on the LVMS recording (paper Figure 6)"
             + (" (lateral F from the inertial unit)" if imu else ""),
@@ -226,14 +236,17 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
             reference=ReferenceSpec(track=None, recording=RECORDING), timing=timing,
             sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
     controller, settings = _BASE[base]
+    car = "peugeot406" if vehicle is None else vehicle
+    if not isinstance(car, str):
+        raise ValueError(f"vehicle = {car!r}: expected a bundled preset's name or a TOML path")
     if controller == "mfc-natural":
-        settings = natural_settings("peugeot406", imu=imu)
-    what = f"paper Section 4: {controller} on the 10DoF peugeot406"
+        settings = natural_settings(car, imu=imu)
+    what = f"paper Section 4: {controller} on the 10DoF {car}"
     if imu:
         what += " (lateral F from the inertial unit, beyond the paper)"
     return Scenario(
         name=name, description=what,
-        vehicle="peugeot406", plant="10dof", controller=controller,
+        vehicle=car, plant="10dof", controller=controller,
         controller_settings=dict(settings),
         reference=ReferenceSpec(track=track or DEFAULT_TRACK), timing=timing,
         sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
