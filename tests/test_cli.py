@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
+import shutil
+from importlib import resources
 
 import numpy as np
 import pytest
@@ -46,7 +49,8 @@ def _invoke(runner, args, **kw):
 # help, tracks, vehicles
 # ------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("cmd", [[], ["run"], ["demo"], ["tracks"], ["vehicles"],
-                                 ["scenario"], ["scenario", "new"], ["bench"]])
+                                 ["scenario"], ["scenario", "new"], ["scenario", "list"],
+                                 ["bench"]])
 def test_help_everywhere_with_examples(runner, cmd):
     res = _invoke(runner, [*cmd, "--help"])
     assert res.exit_code == 0
@@ -137,6 +141,38 @@ def test_scenario_new_writes_a_valid_commented_template(runner, tmp_path):
     assert res.exit_code == 2 and "does not exist" in res.stderr
 
 
+def test_template_is_the_paper_scenario_as_it_says():
+    """The template says its values are those of `paper`: loaded, only its name and
+    description differ (a template with 2 mm of position noise read like the paper scenario
+    and ran another)."""
+    from flatfree.scenarios import named_scenario
+
+    sc = scenario_from_toml(SCENARIO_TEMPLATE)
+    paper = named_scenario("paper")
+    assert sc.with_(name=paper.name, description=paper.description) == paper
+    assert 'named scenario "paper"' in SCENARIO_TEMPLATE
+
+
+def test_scenario_new_from_a_named_scenario_and_the_list(runner, tmp_path):
+    from flatfree.scenarios import SCENARIO_NAMES, named_scenario
+
+    f = tmp_path / "imu.toml"
+    res = _invoke(runner, ["scenario", "new", str(f), "--from", "paper-imu"])
+    assert res.exit_code == 0
+    assert load_scenario(f) == named_scenario("paper-imu")
+    assert f.read_text().startswith("# The named scenario 'paper-imu'")
+    res = _invoke(runner, ["scenario", "new", str(tmp_path / "x.toml"), "--from", "meteor"])
+    assert res.exit_code == 2 and "'meteor'" in res.stderr and "recorded-imu" in res.stderr
+    assert not (tmp_path / "x.toml").exists()
+    doc = json.loads(_invoke(runner, ["scenario", "list", "--json"]).stdout)
+    assert [r["name"] for r in doc["scenarios"]] == list(SCENARIO_NAMES)
+    imu = next(r for r in doc["scenarios"] if r["name"] == "recorded-imu-noise-free")
+    assert (imu["vehicle"], imu["reference"], imu["noise"]) == ("dallara_av21",
+                                                                "LVMS_23_01_04_B", False)
+    text = _invoke(runner, ["scenario", "list"]).stdout.split()
+    assert all(n in text for n in SCENARIO_NAMES)
+
+
 def test_template_commented_options_are_valid_when_uncommented():
     """The commented [[road.patch]] and [[fault]] examples parse once uncommented."""
     text = SCENARIO_TEMPLATE
@@ -209,10 +245,78 @@ def test_run_json_is_one_object_with_the_keys(runner):
     assert isinstance(doc, dict)
     for k in JSON_KEYS:
         assert k in doc, k
-    assert doc["controller"] == "mfc-natural" and doc["track"] == "norisring"
+    # the bundled track's own spelling, not the option's
+    assert doc["controller"] == "mfc-natural" and doc["track"] == "Norisring"
     assert doc["noise"] is False
     assert res.exit_code == (0 if doc["status"] == "completed" else 1)
     assert doc["duration_s"] == pytest.approx(3.0, abs=0.02) or doc["status"] != "completed"
+
+
+def test_run_prints_times_rounded_and_writes_them_exact(runner, tmp_path):
+    """The log's last time is 1999 * 0.01 s = 19.990000000000002 s in binary: printed 19.99;
+    metrics.json keeps the number the trajectory has."""
+    res = _invoke(runner, ["run", "--no-noise", "--duration", "20", "--json",
+                           "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert '"duration_s": 19.99,' in res.stdout
+    tr = Trajectory.from_parquet(tmp_path / "o" / "trajectory.parquet")
+    assert tr.duration != 19.99  # else this test checks nothing
+    assert json.loads((tmp_path / "o" / "metrics.json").read_text())["duration_s"] == \
+        tr.duration
+
+
+def test_run_says_why_every_metric_is_null(runner):
+    res = _invoke(runner, ["run", "--no-noise", "--duration", "1", "--json"])
+    doc = json.loads(res.stdout)
+    assert doc["status"] == "completed" and doc["lateral_error_max_m"] is None
+    assert "note: every metric is null" in res.stderr
+    assert "0.99 s" in res.stderr and "timing.startup_s = 1 s" in res.stderr
+    res = _invoke(runner, ["run", "--no-noise", "--duration", "1.5", "--json"])
+    assert "every metric is null" not in res.stderr
+
+
+def test_run_says_when_the_path_ends_before_the_duration(runner):
+    """Norisring's one lap ends near 98.8 s: a longer --duration cannot be run, and the note
+    says so, naming both and the setting that makes the run longer."""
+    res = _invoke(runner, ["run", "--no-noise", "--duration", "200", "--json"])
+    assert res.exit_code == 0, res.output
+    end = json.loads(res.stdout)["duration_s"]
+    assert 90.0 < end < 110.0
+    note = " ".join(res.stderr.split())
+    assert f"note: the run ended at {end:.2f} s, not at the requested duration of 200 s" in note
+    assert "1 lap of Norisring" in note and "--set reference.laps=N" in note
+    res = _invoke(runner, ["run", "--no-noise", *SHORT, "--json"])
+    assert "note" not in res.stderr
+
+
+def test_run_too_long_for_the_memory_is_a_clean_error(runner):
+    res = _invoke(runner, ["run", "--duration", "1e9", "--json"])
+    assert res.exit_code == 2 and res.stdout == ""
+    msg = " ".join(res.stderr.split())
+    assert "timing.duration_s = 1e+09 s" in msg and "do not fit in memory" in msg
+    assert "1 lap of Norisring" in msg and "reference.laps" in msg
+    assert "Traceback" not in res.output
+
+
+def test_run_out_is_checked_before_the_run(runner, tmp_path, monkeypatch):
+    import flatfree.simulation
+
+    def never(*a, **k):
+        raise AssertionError("the run started before --out was checked")
+
+    monkeypatch.setattr(flatfree.simulation, "simulate", never)
+    blocker = tmp_path / "a_file"  # a folder cannot be made inside a file (root or not)
+    blocker.write_text("")
+    out = blocker / "run1"
+    res = _invoke(runner, ["run", *SHORT, "--out", str(out)])
+    assert res.exit_code == 2 and "Traceback" not in res.output
+    assert f"--out {out}: cannot create or write this folder" in res.stderr
+    res = _invoke(runner, ["demo", "--duration", "2", "--out", str(out)])  # demo too
+    assert res.exit_code == 2 and f"--out {out}: cannot create" in res.stderr
+    # a folder that can be made passes; made and left empty by a failed run, it is removed
+    with pytest.raises(AssertionError, match="before --out"):
+        _invoke(runner, ["run", *SHORT, "--out", str(tmp_path / "new" / "deeper" / "run1")])
+    assert not (tmp_path / "new").exists()
 
 
 def test_run_exit_code_1_when_the_run_does_not_complete(runner, tmp_path):
@@ -253,7 +357,7 @@ def test_run_recording_reports_steer_rms_against_the_recording(runner, tmp_path)
     res = _invoke(runner, ["run", "--recording", "lvms_23_01_04_b", "--no-noise", *SHORT,
                            "--json", "--out", str(out)])
     doc = json.loads(res.stdout)
-    assert doc["track"] == "lvms_23_01_04_b" and doc["vehicle"] == "dallara_av21"
+    assert doc["track"] == "LVMS_23_01_04_B" and doc["vehicle"] == "dallara_av21"
     v = doc["steer_rms_vs_recorded_deg"]
     assert v is not None and math.isfinite(v) and v >= 0.0
     # independent check: RMS over t >= startup of (applied steer - recorded steer), the
@@ -394,8 +498,60 @@ def test_run_help_names_every_named_scenario(runner):
 
     res = _invoke(runner, ["run", "--help"])
     text = " ".join(res.stdout.split())
+    listed = text[text.index("Named scenarios"):text.index("Exit codes")]
+    assert "each also as NAME-noise-free" in listed
     for name in SCENARIO_NAMES:
-        assert name.removesuffix("-noise-free") in text, name
+        assert re.search(rf"[:,] {re.escape(name.removesuffix('-noise-free'))}[,;]", listed), \
+            (name, listed)
+
+
+def test_noise_on_a_noise_free_scenario_is_refused(runner):
+    from flatfree.cli import InputError, build_scenario
+
+    res = _invoke(runner, ["run", "paper-noise-free", "--noise", *SHORT, "--json"])
+    assert res.exit_code == 2 and res.stdout == ""
+    assert "'paper-noise-free'" in res.stderr and "run 'paper'" in res.stderr
+    with pytest.raises(InputError, match="its name says noise-free"):
+        build_scenario("recorded-imu-noise-free", settings=["noise=true"])
+    sc = build_scenario("paper-noise-free", noise=True, settings=["name=mine"])
+    assert sc.noise and sc.name == "mine"
+
+
+def test_bundled_references_come_out_in_their_own_spelling(tmp_path, monkeypatch):
+    from flatfree.cli import build_scenario
+
+    assert build_scenario(track="monza").reference.track == "Monza"
+    assert build_scenario(settings=["reference.track=spa.csv"]).reference.track == "Spa"
+    assert build_scenario(recording="lvms_23_01_04_b").reference.recording == "LVMS_23_01_04_B"
+    monkeypatch.chdir(tmp_path)  # a file wins over a bundled name, as the loaders read it
+    (tmp_path / "monza").write_text("")
+    assert build_scenario(track="monza").reference.track == "monza"
+
+
+def test_run_a_scenario_file_from_another_folder_and_its_saved_copy(runner, tmp_path,
+                                                                   monkeypatch):
+    """`cd / && flatfree run /tmp/rw/r4/scenario.toml` with vehicle = "sub/mycar.toml": the
+    car is read beside the file; the run's saved scenario.toml works from anywhere."""
+    from flatfree.vehicles import load_vehicle
+
+    folder = tmp_path / "rw" / "r4"
+    (folder / "sub").mkdir(parents=True)
+    car = folder / "sub" / "mycar.toml"
+    shutil.copy(resources.files("flatfree.vehicles") / "data" / "peugeot406.toml", car)
+    (folder / "scenario.toml").write_text('name = "r4"\nvehicle = "sub/mycar.toml"\n'
+                                          'noise = false\n')
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    res = _invoke(runner, ["run", str(folder / "scenario.toml"), "--duration", "0.5",
+                           "--json", "--out", "out"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["vehicle"] == str(car)
+    saved = tmp_path / "elsewhere" / "out" / "scenario.toml"
+    assert load_scenario(saved).vehicle == str(car)
+    assert load_vehicle(str(car)).mass == load_vehicle("peugeot406").mass
+    monkeypatch.chdir(tmp_path)
+    res = _invoke(runner, ["run", str(saved), "--duration", "0.5", "--json"])
+    assert res.exit_code == 0, res.output
 
 
 def test_run_prints_the_steer_lock_warning_as_one_line(runner):

@@ -6,6 +6,7 @@ import dataclasses
 import math
 import tomllib
 from collections.abc import Mapping
+from pathlib import Path
 
 import pytest
 
@@ -87,6 +88,13 @@ def test_noise_switch_keeps_rates_and_delays():
          ["line 3", "road.patch.s_end_m", "must exceed"]),
         ('[[fault]]\nkind = "meteor"\nt_start_s = 1.0\nduration_s = 1.0\n',
          ["line 2", "fault.kind", "'meteor'"]),
+        # an unknown kind is named before the keys it would need (not a TypeError's text)
+        ('[[fault]]\nkind = "meteor"\n', ["line 2", "fault.kind = 'meteor'",
+                                           "nan_measurement, steer_limit"]),
+        ('[[fault]]\nkind = "steer_limit"\nvalue = 0.1\n',
+         ["line 1", "field fault", "missing keys t_start_s, duration_s"]),
+        ('[[road.patch]]\ns_start_m = 10.0\ns_end_m = 20.0\n',
+         ["line 1", "field road.patch", "missing key mu"]),
         ('seed = -3\n', ["line 1", "field seed", "-3"]),
         ('[reference]\ndrive_limit = "yes"\n', ["line 2", "reference.drive_limit", "'yes'"]),
         ('wheels = 4\n', ["line 1", "field wheels", "unknown key"]),
@@ -165,6 +173,76 @@ def test_fault_needs_its_fields():
 def test_missing_file():
     with pytest.raises(ValueError, match="scenario file not found"):
         load_scenario("/nonexistent/x.toml")
+
+
+# ------------------------------------------------------------------------------------------
+# file paths: relative to the scenario file's folder; saved absolute
+# ------------------------------------------------------------------------------------------
+def _files(root):
+    """A scenario folder with a car and a track of its own, and another current directory."""
+    (root / "rw" / "sub").mkdir(parents=True)
+    (root / "rw" / "sub" / "mycar.toml").write_text("# a car\n")
+    (root / "rw" / "tracks").mkdir()
+    (root / "rw" / "tracks" / "circle.csv").write_text("# a track\n")
+    (root / "elsewhere").mkdir()
+    return root / "rw"
+
+
+def test_relative_paths_in_a_file_are_relative_to_its_folder(tmp_path, monkeypatch):
+    rw = _files(tmp_path)
+    (rw / "scenario.toml").write_text('vehicle = "sub/mycar.toml"\n[reference]\n'
+                                      'track = "tracks/circle.csv"\n')
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    for path in (rw / "scenario.toml", "../rw/scenario.toml"):  # absolute, and relative
+        sc = load_scenario(path)
+        assert sc.vehicle == str(rw / "sub" / "mycar.toml")
+        assert sc.reference.track == str(rw / "tracks" / "circle.csv")
+    # a recording file too; a missing file is looked for in the folder too (so its error
+    # names where), "../" included
+    (rw / "scenario.toml").write_text('vehicle = "../elsewhere/none.toml"\n[reference]\n'
+                                      'recording = "tracks/circle.csv"\n')
+    sc = load_scenario(rw / "scenario.toml")
+    assert sc.vehicle == str(tmp_path / "elsewhere" / "none.toml")
+    assert sc.reference.recording == str(rw / "tracks" / "circle.csv")
+    # bundled names are names, in any spelling the loaders take
+    (rw / "scenario.toml").write_text('vehicle = "PEUGEOT406"\n[reference]\n'
+                                      'track = "monza.csv"\n')
+    sc = load_scenario(rw / "scenario.toml")
+    assert (sc.vehicle, sc.reference.track) == ("PEUGEOT406", "monza.csv")
+    (rw / "scenario.toml").write_text(f'vehicle = "{rw / "sub" / "mycar.toml"}"\n'
+                                      '[reference]\nrecording = "LVMS_23_01_04_B"\n')
+    sc = load_scenario(rw / "scenario.toml")  # an absolute path is kept
+    assert sc.vehicle == str(rw / "sub" / "mycar.toml")
+    assert sc.reference.recording == "LVMS_23_01_04_B"
+    # as a loader reads an existing file before a bundled name, so does the folder
+    (rw / "Monza").write_text("# a file named like a bundled track\n")
+    (rw / "scenario.toml").write_text('[reference]\ntrack = "Monza"\n')
+    assert load_scenario(rw / "scenario.toml").reference.track == str(rw / "Monza")
+    # text without a folder keeps the values as written
+    assert scenario_from_toml('vehicle = "sub/mycar.toml"\n').vehicle == "sub/mycar.toml"
+
+
+def test_save_writes_file_paths_absolute_so_the_file_works_anywhere(tmp_path, monkeypatch):
+    rw = _files(tmp_path)
+    monkeypatch.chdir(rw)
+    sc = Scenario(vehicle="sub/mycar.toml",
+                  reference=ReferenceSpec(track="tracks/circle.csv"))
+    out = tmp_path / "elsewhere" / "saved.toml"
+    sc.save(out)
+    assert sc.vehicle == "sub/mycar.toml"  # the scenario itself is unchanged
+    doc = tomllib.loads(out.read_text())
+    assert doc["vehicle"] == str(rw / "sub" / "mycar.toml")
+    assert doc["reference"]["track"] == str(rw / "tracks" / "circle.csv")
+    monkeypatch.chdir(tmp_path)
+    back = load_scenario(out)
+    assert back == sc.with_(vehicle=str(rw / "sub" / "mycar.toml"), reference=ReferenceSpec(
+        track=str(rw / "tracks" / "circle.csv")))
+    # and that file saved again is the same file; bundled names stay names
+    assert load_scenario(back.save(tmp_path / "again.toml")) == back
+    rec = Scenario(reference=ReferenceSpec(track=None, recording="lvms_23_01_04_b"))
+    assert load_scenario(rec.save(tmp_path / "rec.toml")) == rec
+    # a path given as a Path is written as its text
+    assert scenario_from_toml(Scenario(vehicle=Path("a.toml")).to_toml()).vehicle == "a.toml"
 
 
 # ------------------------------------------------------------------------------------------

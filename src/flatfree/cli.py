@@ -8,7 +8,8 @@ A thin layer (DESIGN.md): parse the options, build a :class:`~flatfree.scenario.
     flatfree run        one run (a TOML file, a named scenario, or options)
     flatfree tracks     the bundled tracks and recordings
     flatfree vehicles   the vehicle presets
-    flatfree scenario new FILE   a commented TOML template
+    flatfree scenario new FILE   a commented TOML template (--from NAME: a named scenario)
+    flatfree scenario list       the named scenarios
     flatfree bench      speed of the library on this machine
 
 Exit codes: 0 success; 1 the run failed (its status is not ``completed``); 2 bad usage or bad
@@ -19,11 +20,14 @@ object on stdout.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import json
 import math
 import sys
+import tempfile
+import textwrap
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -84,6 +88,61 @@ def _named(name: str, **kw):
         return mod.named_scenario(name, **kw)
     except ValueError as exc:
         raise _fail(str(exc)) from None
+
+
+def _scenario_names_help() -> str:
+    """A help paragraph naming every named scenario, from flatfree.scenarios.SCENARIO_NAMES
+    (so it cannot miss one); wrapped here, as click would break the names at their hyphens."""
+    names = _scenarios_module().SCENARIO_NAMES
+    sfx = "-noise-free"
+    bases = [n for n in names if not n.endswith(sfx)]
+    listed = (f"{', '.join(bases)}; each also as NAME{sfx}"
+              if sorted(names) == sorted([*bases, *(b + sfx for b in bases)])
+              else ", ".join(names))
+    return "\b\n" + textwrap.fill(f"Named scenarios (`flatfree scenario list` describes them): "
+                                  f"{listed}.", width=96, break_on_hyphens=False)
+
+
+def _round_times(payload: dict[str, Any]) -> dict[str, Any]:
+    """``payload`` with its times [s] (keys ending in ``_s``) rounded to 12 significant digits
+    for printing: 19.99, not 19.990000000000002 (the binary rounding of the step sums)."""
+    return {k: float(f"{v:.12g}") if k.endswith("_s") and isinstance(v, float) else v
+            for k, v in payload.items()}
+
+
+def _make_out_dir(out_dir: Path) -> list[Path]:
+    """Create the output folder ``out_dir`` and check a file can be written in it, before a
+    run spends its time: :class:`InputError` (exit 2) naming the folder if not. Returns the
+    folders created (deepest first)."""
+    created = [q for q in (out_dir, *out_dir.parents) if not q.exists()]
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out_dir):
+            pass
+    except OSError as exc:
+        _remove_empty(created)
+        raise _fail(f"--out {out_dir}: cannot create or write this folder "
+                    f"({exc.strerror or exc})") from None
+    return created
+
+
+@contextlib.contextmanager
+def _out_dir(out_dir: Path | None):
+    """:func:`_make_out_dir` (``None``: no folder), and the folders it created removed again
+    if the command fails before writing into them."""
+    created = [] if out_dir is None else _make_out_dir(out_dir)
+    try:
+        yield
+    except BaseException:
+        _remove_empty(created)
+        raise
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove each folder of ``folders`` (deepest first) that is empty."""
+    for q in folders:
+        with contextlib.suppress(OSError):
+            q.rmdir()
 
 
 # ------------------------------------------------------------------------------------------
@@ -237,11 +296,17 @@ def vehicles(as_json: bool) -> None:
 SCENARIO_TEMPLATE = '''\
 # A flatfree scenario: one closed-loop run. Run it with
 #     flatfree run THIS_FILE.toml [--json] [--out DIR]
-# Every key is optional; the values below are the defaults of flatfree.scenario unless a
-# comment says otherwise. SI units; a unit is part of a key's name where it is not obvious.
+# The values below are those of the named scenario "paper" (`flatfree run paper`) but its
+# name and description: the defaults of flatfree.scenario.Scenario, plus the sensor noise of
+# flatfree.scenarios.REALISTIC_SENSORS (Scenario() itself has no [sensors.*] table: every
+# channel exact). Every key is optional: a key left out takes the default of
+# flatfree.scenario.Scenario, and a channel without a table is exact. Another named scenario
+# as a file: `flatfree scenario new FILE --from NAME` (`flatfree scenario list`).
+# SI units; a unit is part of a key's name where it is not obvious. A relative file path
+# (vehicle, track, recording) is relative to this file's folder.
 
 name = "my-scenario"
-description = "the paper's car on Norisring, model-free control on natural outputs"
+description = "as paper: the paper's car on Norisring, model-free control on natural outputs"
 vehicle = "peugeot406"      # a preset (flatfree vehicles) or the path of a vehicle TOML file
 plant = "10dof"             # "10dof" (validation model) or "3dof" (the paper's design model)
 controller = "mfc-natural"  # "flatness", "mfc-flat", "mfc-natural"
@@ -285,12 +350,12 @@ startup_s = 1.0
 # one table per measured channel (x, y, psi, vx, vy, r, ax, ay): noise sigma, bias, rate,
 # delay; a channel without a table is exact
 [sensors.x]
-noise_std = 0.002           # [m]
+noise_std = 0.001           # [m]
 # markov_std = 0.01         # [m] a slow (Gauss-Markov) drift on top: its std,
 # markov_tau_s = 60.0       # [s] its correlation time,
 # markov_order = 2          # 1: first order (a random walk at short time scales), 2: smooth
 [sensors.y]
-noise_std = 0.002           # [m]
+noise_std = 0.001           # [m]
 [sensors.psi]
 noise_std = 0.0017          # [rad]
 [sensors.vx]
@@ -333,25 +398,69 @@ mu = 1.0
 
 @main.group(context_settings=CONTEXT, epilog="""\b
 Examples:
-  flatfree scenario new my_scenario.toml""")
+  flatfree scenario new my_scenario.toml
+  flatfree scenario new my_imu.toml --from paper-imu
+  flatfree scenario list""")
 def scenario() -> None:
-    """Scenario files (TOML)."""
+    """Scenario files (TOML) and the named scenarios."""
 
 
 @scenario.command("new", context_settings=CONTEXT, epilog="""\b
 Examples:
   flatfree scenario new my_scenario.toml
+  flatfree scenario new my_imu.toml --from paper-imu
   flatfree run my_scenario.toml""")
 @click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--from", "from_name", metavar="NAME",
+              help="Write the named scenario NAME (see `flatfree scenario list`) instead of "
+                   "the commented template.")
 @click.option("--force", is_flag=True, help="Overwrite FILE if it exists.")
-def scenario_new(file: Path, force: bool) -> None:
-    """Write a commented TOML template to FILE, to edit and run with `flatfree run FILE`."""
+def scenario_new(file: Path, from_name: str | None, force: bool) -> None:
+    """Write a scenario to FILE, to edit and run with `flatfree run FILE`.
+
+    Without --from: a template with every key commented, the values of the named scenario
+    `paper`. With --from NAME: the named scenario NAME, every key set, without comments.
+    """
+    text = SCENARIO_TEMPLATE
+    if from_name is not None:
+        sc = _named(from_name)
+        head = (f"The named scenario {sc.name!r} of flatfree {__version__} "
+                f"(flatfree.scenarios): {sc.description}. Run it with `flatfree run "
+                f"{file.name}`; `flatfree scenario new FILE` writes a commented template.")
+        text = textwrap.fill(head, width=96, initial_indent="# ", subsequent_indent="# ",
+                             break_on_hyphens=False) + "\n\n" + sc.to_toml()
     if file.exists() and not force:
         raise _fail(f"{file} exists; use --force to overwrite it")
     if not file.parent.exists():
         raise _fail(f"folder {file.parent} does not exist")
-    file.write_text(SCENARIO_TEMPLATE, encoding="utf-8")
+    file.write_text(text, encoding="utf-8")
     _err(f"wrote {file}")
+
+
+@scenario.command("list", context_settings=CONTEXT, epilog="""\b
+Examples:
+  flatfree scenario list
+  flatfree scenario list --json
+  flatfree run paper-imu""")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of a table.")
+def scenario_list(as_json: bool) -> None:
+    """The named scenarios (flatfree.scenarios), run by `flatfree run NAME`."""
+    rows = []
+    for name in _scenarios_module().SCENARIO_NAMES:
+        sc = _named(name)
+        rows.append({"name": name, "controller": sc.controller, "vehicle": sc.vehicle,
+                     "reference": sc.reference.track or sc.reference.recording,
+                     "noise": sc.noise, "description": sc.description})
+    if as_json:
+        click.echo(json.dumps({"scenarios": rows}))
+        return
+    w = max(len(r["name"]) for r in rows)
+    click.echo(f"{'name':{w}s}  {'controller':11s} {'vehicle':12s} {'reference':15s} "
+               f"{'noise':5s}  description")
+    for r in rows:
+        click.echo(f"{r['name']:{w}s}  {r['controller']:11s} {r['vehicle']:12s} "
+                   f"{r['reference']:15s} {'on' if r['noise'] else 'off':5s}  "
+                   f"{r['description']}")
 
 
 # ------------------------------------------------------------------------------------------
@@ -418,8 +527,11 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     controller settings (only the flatness controller takes them: another one refuses them
     when the run starts). ``settings`` (``--set FIELD=VALUE``, repeatable) are applied last,
     in order, by :func:`flatfree.scenario.scenario_with_settings`: a ``--set`` wins over the
-    options (``--seed 1 --set seed=2`` runs seed 2). Raises :class:`InputError` (exit 2) on
-    bad input.
+    options (``--seed 1 --set seed=2`` runs seed 2). A bundled track or recording comes out
+    in its own spelling (``--track monza``: ``Monza``). Raises :class:`InputError` (exit 2) on
+    bad input, and on a scenario named ``...-noise-free`` with the noise switched on (its
+    results would carry a name that says the opposite: run the noisy scenario instead, or
+    rename it with ``--set name=...``).
     """
     from flatfree.scenario import Scenario, scenario_with_settings
 
@@ -458,14 +570,37 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             changes["seed"] = seed
         if duration_s is not None:
             changes["timing"] = dataclasses.replace(sc.timing, duration_s=duration_s)
-        return scenario_with_settings(sc.with_(**changes), list(settings))
+        sc = scenario_with_settings(sc.with_(**changes), list(settings))
+        ref = sc.reference
+        sc = sc.with_(reference=dataclasses.replace(
+            ref, track=_bundled_spelling(ref.track, "track"),
+            recording=_bundled_spelling(ref.recording, "recording")))
     except ValueError as exc:
         raise _fail(str(exc)) from None
+    if sc.noise and sc.name.endswith("-noise-free"):
+        raise _fail(f"scenario {sc.name!r} with the sensor noise on (--noise or noise=true): "
+                    f"its name says noise-free; run {sc.name.removesuffix('-noise-free')!r} "
+                    "for the noisy variant, or rename it (--set name=NAME)")
+    return sc
+
+
+def _bundled_spelling(name: str | None, kind: str) -> str | None:
+    """A bundled track (``kind="track"``, a recording's name included) or recording name in
+    its own spelling (``monza`` -> ``Monza``, as the loaders match it); a file's path, and
+    anything else, as given."""
+    if name is None or Path(name).is_file():
+        return name
+    from flatfree.tracks import recording_names, track_names
+
+    names = (track_names() if kind == "track" else []) + recording_names()
+    by_lower = {n.lower(): n for n in names}
+    return by_lower.get(str(name).strip().lower().removesuffix(".csv"), name)
 
 
 def _simulate_collecting(sc, warned: list[str]):
     """simulate(sc), the library's warnings (e.g. a curve beyond the car's steer lock) appended
-    to ``warned`` as text instead of shown; a ValueError passes through."""
+    to ``warned`` as text instead of shown; a ValueError passes through, and a run too long for
+    the memory becomes one."""
     import warnings
 
     from flatfree.simulation import simulate
@@ -474,8 +609,40 @@ def _simulate_collecting(sc, warned: list[str]):
         warnings.simplefilter("always")
         try:
             return simulate(sc)
+        except MemoryError as exc:
+            # simulate() allocates the sensor noise and the log for the whole duration
+            d = sc.timing.duration_s
+            raise ValueError(
+                f"{'the run' if d is None else f'timing.duration_s = {d:g} s'}: the run's "
+                "sensor noise and log, allocated for the whole duration, do not fit in memory "
+                f"({exc}); {_reference_end(sc)}") from None
         finally:
             warned.extend(str(w.message) for w in caught)
+
+
+def _reference_end(sc) -> str:
+    """Where a run ends at the latest: the end of its reference path, how long the reference
+    lasts, and the setting that makes it longer (reference.laps on a closed track)."""
+    import warnings
+
+    from flatfree.simulation import prepare
+
+    spec = sc.reference
+    try:
+        with warnings.catch_warnings():  # the run warned already
+            warnings.simplefilter("ignore")
+            ref = prepare(sc).reference
+    except (ValueError, MemoryError):
+        ref = None
+    lasts = "" if ref is None else f", {ref.duration:.1f} s"
+    if spec.recording is not None:
+        return (f"a run ends where its reference ends (the recording {spec.recording}{lasts}), "
+                "and no setting makes a recording longer")
+    lasts += "" if ref is None else " at its speed profile"
+    what = f"{spec.laps} lap{'s' if spec.laps != 1 else ''} of {spec.track}{lasts}"
+    more = ("for a longer run set reference.laps (--set reference.laps=N)"
+            if ref is not None and ref.path.closed else "an open path cannot be driven longer")
+    return f"a run ends where its reference path ends ({what}); {more}"
 
 
 def _simulate(sc):
@@ -570,10 +737,11 @@ road.bank_deg, controller_settings.*, vehicle_overrides.*, seed, ...); VALUE is 
 --set options are applied after the other options, so they win. Faults ([[fault]]) and
 friction patches ([[road.patch]]) are set in a TOML file.
 
+""" + _scenario_names_help() + """
+
 \b
-Named scenarios: paper, paper-mfc-flat, paper-flatness, paper-mismatch, recorded, and their
--noise-free variants. Exit codes: 0 completed, 1 the run did not complete (left the track,
-non-finite state), 2 bad usage or input.""")
+Exit codes: 0 completed, 1 the run did not complete (left the track, non-finite state), 2 bad
+usage or input.""")
 @click.argument("scenario_file", metavar="[SCENARIO]", required=False)
 @click.option("--controller", type=click.Choice(_controller_choices(), case_sensitive=False),
               help="Controller (default: the scenario's).")
@@ -607,10 +775,9 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         duration_s, settings, out_dir, as_json) -> None:
     """Run one closed-loop scenario and print its metrics.
 
-    SCENARIO is a TOML file (see `flatfree scenario new`) or a named scenario (paper,
-    paper-mfc-flat, paper-flatness, paper-mismatch, recorded, paper-imu, recorded-imu, each
-    also with -noise-free); without it the paper's scenario (or, with --recording, the
-    recorded one) is the base, and the options change it; --set changes any field, last.
+    SCENARIO is a TOML file (see `flatfree scenario new`) or a named scenario (listed below);
+    without it the paper's scenario (or, with --recording, the recorded one) is the base, and
+    the options change it; --set changes any field, last.
     """
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult, format_table
@@ -623,20 +790,23 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
                         settings=settings)
     if noise and not any(c.noise_std > 0 for c in sc.sensors.channels.values()):
         _err(f"note: --noise has no effect: scenario {sc.name!r} gives no sensor a noise_std")
-    tr = _simulate(sc)
-    m = compute_metrics(tr, startup_s=sc.timing.startup_s)
-    extra: dict[str, float] = {}
-    rec = None
-    if sc.reference.recording is not None:
-        (rec,) = recorded_steer_of([tr], sc)
-        extra["steer_rms_vs_recorded_deg"] = steer_rms_vs_recorded_deg(
-            tr, rec, sc.timing.startup_s)
-    result = RunResult(label=sc.controller, scenario=sc, trajectory=tr, metrics=m, extra=extra)
-    payload = _run_json(sc, tr, m, extra)
-    if out_dir is not None:
-        _write_run(out_dir, result, payload, rec)
+    with _out_dir(out_dir):
+        tr = _simulate(sc)
+        _note_short_or_capped(sc, tr)
+        m = compute_metrics(tr, startup_s=sc.timing.startup_s)
+        extra: dict[str, float] = {}
+        rec = None
+        if sc.reference.recording is not None:
+            (rec,) = recorded_steer_of([tr], sc)
+            extra["steer_rms_vs_recorded_deg"] = steer_rms_vs_recorded_deg(
+                tr, rec, sc.timing.startup_s)
+        result = RunResult(label=sc.controller, scenario=sc, trajectory=tr, metrics=m,
+                           extra=extra)
+        payload = _run_json(sc, tr, m, extra)
+        if out_dir is not None:
+            _write_run(out_dir, result, payload, rec)
     if as_json:
-        click.echo(json.dumps(payload))
+        click.echo(json.dumps(_round_times(payload)))
     else:
         where = sc.reference.track or sc.reference.recording
         click.echo(f"{sc.name}: {sc.controller} on {where}, {sc.vehicle}, {sc.plant} plant, "
@@ -650,6 +820,25 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
             click.echo(f"wrote {out_dir}/report.html")
     if not tr.completed:
         sys.exit(1)
+
+
+def _note_short_or_capped(sc, tr) -> None:
+    """Notes on stderr when the run's length explains its results: it ended at the end of the
+    reference path before the requested duration, or within the start-up interval that the
+    metrics leave out (every metric then null)."""
+    t = tr.time
+    requested = sc.timing.duration_s
+    if (tr.completed and requested is not None and t.size
+            and t[-1] + sc.timing.log_dt_s < requested - 1e-9):
+        _err(f"note: the run ended at {t[-1]:.2f} s, not at the requested duration of "
+             f"{requested:g} s (timing.duration_s; its sensor noise and log were sized for "
+             f"it): {_reference_end(sc)}")
+    startup = sc.timing.startup_s
+    if not np.any(t >= (t[0] if t.size else 0.0) + startup):
+        end = f"its log ends at {t[-1]:.2f} s" if t.size else "it logged nothing"
+        _err(f"note: every metric is null: {end}, within the start-up interval of "
+             f"timing.startup_s = {startup:g} s that the metrics leave out; run longer "
+             "(--duration) or shorten it (--set timing.startup_s=S)")
 
 
 def _write_run(out_dir: Path, result, payload: dict[str, Any],
@@ -862,6 +1051,7 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
         ref_xy = _reference_xy(tasks[0][2])
     except ValueError as exc:
         raise _fail(str(exc)) from None
+    _make_out_dir(out_dir)  # before the long part too
 
     show = sys.stderr.isatty() if progress is None else progress
     results: dict[str, list] = {"paper": [], "mismatch": [], "recorded": []}

@@ -67,6 +67,18 @@ TOML layout (every key optional except where a section says so; units in the key
 
 A malformed file raises ``ValueError`` naming the file, the line and the field.
 
+File paths (``vehicle``, ``reference.track``, ``reference.recording``): a bundled name
+(``"peugeot406"``, ``"Norisring"``, ``"LVMS_23_01_04_B"``) is a name, not a path, and stays as
+written. A relative path in a file read by :func:`load_scenario` is relative to that file's
+folder, as a loader reads a relative path against the current directory: a value naming an
+existing file there is that file, then a bundled name wins, then any other value that looks like
+a path (a folder separator or a file suffix) is taken in that folder too, so that a missing
+file's error names where it was looked for. The loaded scenario holds absolute paths.
+:meth:`Scenario.save` (and ``flatfree run --out``) writes every file path absolute (a relative
+one taken against the current directory, where a run would read it), so the saved file works
+from any directory; :func:`scenario_to_toml` and :func:`scenario_from_toml` (text, no folder)
+keep the values as they are.
+
 Any field can also be changed by a *setting* ``"path=value"`` (:func:`scenario_with_settings`,
 :meth:`Scenario.with_settings`, ``flatfree run --set``): the path is the field's dotted path in
 this layout (``reference.j_lat_max``, ``sensors.y.markov_order``, ``controller_settings.kp_lat``)
@@ -371,9 +383,11 @@ class Scenario:
         return scenario_to_toml(self)
 
     def save(self, path: str | Path) -> Path:
-        """Write the scenario to a TOML file."""
+        """Write the scenario to a TOML file, its file paths absolute (module docstring: a
+        relative path is taken against the current directory), so the file works from any
+        directory; bundled names stay names."""
         path = Path(path)
-        path.write_text(self.to_toml(), encoding="utf-8")
+        path.write_text(scenario_to_toml(_anchor_files(self, Path.cwd())), encoding="utf-8")
         return path
 
 
@@ -386,9 +400,49 @@ _TABLES = ("vehicle_overrides", "controller_settings", "reference", "timing", "s
 
 
 def _plain(obj) -> dict[str, Any]:
-    """A flat dataclass as a dict without None values."""
-    return {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)
-            if getattr(obj, f.name) is not None}
+    """A flat dataclass as a dict without None values (a path as its text)."""
+    return {f.name: os.fspath(v) if isinstance(v, os.PathLike) else v
+            for f in dataclasses.fields(obj) if (v := getattr(obj, f.name)) is not None}
+
+
+def _bundled_names(kind: str) -> set[str]:
+    """The bundled names a ``vehicle`` / ``track`` / ``recording`` value may be, lower case (the
+    loaders match them case-insensitively; a track may also be a recording's name)."""
+    if kind == "vehicle":
+        from flatfree.vehicles import vehicle_names
+
+        return {n.lower() for n in vehicle_names()}
+    from flatfree.tracks import recording_names, track_names
+
+    return {n.lower() for n in (track_names() if kind == "track" else []) + recording_names()}
+
+
+def _anchored(value: str | os.PathLike | None, folder: Path, kind: str) -> str | None:
+    """``value``, a bundled name or a file path, with a relative path made absolute against
+    ``folder`` (precedence: module docstring)."""
+    if value is None:
+        return None
+    text = os.fspath(value)
+    if os.path.isabs(text):
+        return text
+    full = os.path.normpath(os.path.join(os.path.abspath(folder), text))
+    if os.path.isfile(full):
+        return full
+    key = text.strip().lower()
+    if (key if kind == "vehicle" else key.removesuffix(".csv")) in _bundled_names(kind):
+        return text
+    if "/" in text or os.sep in text or Path(text).suffix:
+        return full
+    return text  # neither a file nor a name: the loader's error names it as written
+
+
+def _anchor_files(sc: Scenario, folder: Path) -> Scenario:
+    """``sc`` with its relative file paths made absolute against ``folder``."""
+    ref = sc.reference
+    return dataclasses.replace(
+        sc, vehicle=_anchored(sc.vehicle, folder, "vehicle"),
+        reference=dataclasses.replace(ref, track=_anchored(ref.track, folder, "track"),
+                                      recording=_anchored(ref.recording, folder, "recording")))
 
 
 def scenario_to_toml(sc: Scenario) -> str:
@@ -396,6 +450,7 @@ def scenario_to_toml(sc: Scenario) -> str:
     import tomli_w
 
     doc: dict[str, Any] = {k: getattr(sc, k) for k in _TOP_KEYS}
+    doc["vehicle"] = os.fspath(sc.vehicle)
     if sc.vehicle_overrides:
         doc["vehicle_overrides"] = dict(sc.vehicle_overrides)
     if sc.controller_settings:
@@ -473,6 +528,12 @@ class _Where:
                 raise self.error(
                     ValueError(f"unknown key; valid keys: {', '.join(sorted(known))}"),
                     prefix, key)
+        missing = [f.name for f in dataclasses.fields(cls) if f.name not in values
+                   and f.default is dataclasses.MISSING
+                   and f.default_factory is dataclasses.MISSING]
+        if missing:
+            raise self.error(ValueError(f"missing key{'s' if len(missing) > 1 else ''} "
+                                        f"{', '.join(missing)}"), prefix, None)
         try:
             return cls(**values)
         except (TypeError, ValueError) as exc:
@@ -490,8 +551,15 @@ def _field_in_message(msg: str, values: Mapping[str, Any]) -> str | None:
     return best[1] if best else None
 
 
-def scenario_from_toml(text: str, source: str = "<scenario>") -> Scenario:
-    """Parse TOML text into a :class:`Scenario`; errors name the line and the field."""
+def scenario_from_toml(text: str, source: str = "<scenario>", *,
+                       base_dir: str | Path | None = None) -> Scenario:
+    """Parse TOML text into a :class:`Scenario`; errors name the line and the field.
+
+    ``base_dir``: the folder relative file paths in the text are relative to
+    (:func:`load_scenario` passes the file's folder; module docstring); they come back
+    absolute. None: the values are kept as written (a relative path is then read against the
+    current directory when the scenario runs).
+    """
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -531,12 +599,19 @@ def scenario_from_toml(text: str, source: str = "<scenario>") -> Scenario:
         "patches": tuple(where.build(FrictionPatch, "road.patch", p) for p in patches),
     })
     faults = where.tables(doc.get("fault", []), "fault")
+    for f in faults:  # the kind first: it decides which other keys a fault needs
+        if "kind" in f:
+            try:
+                _choice("fault.kind", f["kind"], FAULT_KINDS)
+            except ValueError as exc:
+                raise where.error(exc, "fault", "kind") from None
     kwargs["faults"] = tuple(where.build(Fault, "fault", f) for f in faults)
     try:
-        return Scenario(**kwargs)
+        sc = Scenario(**kwargs)
     except (TypeError, ValueError) as exc:
         key = _field_in_message(str(exc), dict.fromkeys(_TOP_KEYS))
         raise where.error(exc, None, key) from None
+    return sc if base_dir is None else _anchor_files(sc, Path(base_dir))
 
 
 def _reference_values(reference: dict) -> dict:
@@ -547,13 +622,14 @@ def _reference_values(reference: dict) -> dict:
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Read a scenario TOML file."""
+    """Read a scenario TOML file; its relative file paths are relative to its folder (module
+    docstring) and come back absolute."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ValueError(f"scenario file not found: {path}") from None
-    return scenario_from_toml(text, source=str(path))
+    return scenario_from_toml(text, source=str(path), base_dir=path.parent)
 
 
 # ------------------------------------------------------------------------------------------
