@@ -325,6 +325,8 @@ def test_named_scenario_takes_another_car_with_its_tuning():
     assert named_scenario("paper").with_(vehicle="dallara_av21").controller_settings == \
         base.controller_settings
     # the flatness designs carry no per-car settings: only the car changes
+    assert named_scenario("paper-mismatch").description.endswith(
+        ", 0.3 Cf and 0.3 Cr in its model (Figure 2)")  # told apart from paper-flatness
     flat = named_scenario("paper-mismatch", vehicle="bmw320i")
     assert flat.vehicle == "bmw320i"
     assert flat.controller_settings == named_scenario("paper-mismatch").controller_settings

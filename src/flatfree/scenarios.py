@@ -242,6 +242,9 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
     if controller == "mfc-natural":
         settings = natural_settings(car, imu=imu)
     what = f"paper Section 4: {controller} on the 10DoF {car}"
+    if "cf_scale" in settings:
+        what += (f", {settings['cf_scale']:g} Cf and {settings['cr_scale']:g} Cr in its model "
+                 "(Figure 2)")
     if imu:
         what += " (lateral F from the inertial unit, beyond the paper)"
     return Scenario(
