@@ -27,3 +27,22 @@ def test_import_is_light():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_the_public_doors_refuse_bad_input_with_a_valueerror_naming_it():
+    """The calls of a user review, through the top-level names: each used to end in numba's
+    TypeError/TypingError or an AttributeError from deep inside."""
+    ip = flatfree.IP(alpha=2.0, kp=5.0, dt=0.01, window=10)
+    for bad in ("a", None, [1.0, 2.0]):
+        with pytest.raises(ValueError, match=r"^y = .*: expected a real number"):
+            ip.step(y=bad, y_ref=1.0)
+    with pytest.raises(ValueError, match=r"^ki = 3\.0 1/s\^2: must be 0 for an IP"):
+        flatfree.IP(alpha=2.0, kp=5.0, dt=0.01, window=10, ki=3.0)
+    act = flatfree.ActuatorParams.from_vehicle(flatfree.load_vehicle("peugeot406"))
+    noc = flatfree.NaturalOutputController(dt=0.001, actuators=act)
+    with pytest.raises(ValueError, match=r"^vx = '20' m/s: expected a real number"):
+        noc.step(vx="20", r=0.0, e_y=0.0, kappa=0.0, vx_ref=20.0)
+    ref = flatfree.make_reference("Norisring", {"a_lat_max": 3.0}, dt=0.1)
+    assert ref.path.name == "Norisring"
+    with pytest.raises(ValueError, match=r"^sc = 'papr': expected a Scenario"):
+        flatfree.simulate("papr")

@@ -290,7 +290,10 @@ def test_run_says_when_the_path_ends_before_the_duration(runner):
 
 
 def test_run_too_long_for_the_memory_is_a_clean_error(runner):
-    res = _invoke(runner, ["run", "--duration", "1e9", "--json"])
+    # on the clock schedule a run lasts what is asked (on the path schedule it is capped near
+    # the path's end: simulation.prepare)
+    res = _invoke(runner, ["run", "--duration", "1e9", "--set",
+                           "controller_settings.schedule=time", "--json"])
     assert res.exit_code == 2 and res.stdout == ""
     msg = " ".join(res.stderr.split())
     assert "timing.duration_s = 1e+09 s" in msg and "do not fit in memory" in msg

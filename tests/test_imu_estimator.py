@@ -9,6 +9,7 @@ ultra-local model on a parabola, and the algebraic controller itself (the fallba
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -19,7 +20,12 @@ from flatfree.metrics import compute_metrics
 from flatfree.scenario import Fault, ReferenceSpec, Scenario, Timing
 from flatfree.scenarios import named_scenario
 from flatfree.simulation import prepare, simulate
-from flatfree.tracks import frenet_init, frenet_project, lateral_deviation_acceleration
+from flatfree.tracks import (
+    frenet_init,
+    frenet_project,
+    lateral_deviation_acceleration,
+    lateral_deviation_acceleration_kernel,
+)
 from flatfree.trajectory import Status
 from flatfree.vehicles import load_vehicle
 
@@ -40,6 +46,29 @@ def test_lateral_deviation_acceleration_exact_on_a_circle_and_a_line():
         got = lateral_deviation_acceleration(a, 0.0, 12.0, 0.0, 0.7, theta, 0.0)
         assert got == pytest.approx(a * math.sin(theta), rel=1e-14, abs=1e-15)
     assert math.isnan(lateral_deviation_acceleration(math.nan, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0))
+    # NumPy scalars and integers are numbers; the compiled twin gives the same value
+    args = (np.float64(0.3), 2, 20.0, np.float32(0.5), 0.1, -0.02, 0.004)
+    assert lateral_deviation_acceleration(*args) == lateral_deviation_acceleration_kernel(
+        *(float(a) for a in args))
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (("a", 0.0, 20.0, 0.0, 0.0, 0.0, 0.0), "ax = 'a' m/s^2: expected a real number"),
+    ((0.0, 0.0, None, 0.0, 0.0, 0.0, 0.0), "vx = None m/s: expected a real number"),
+    ((0.0, 0.0, 20.0, 0.0, np.zeros(2), 0.0, 0.0),
+     "e_y = array([0., 0.]) m: expected a real number"),
+    ((0.0, 0.0, 20.0, 0.0, 0.0, 0.0, True), "kappa = True 1/m: expected a real number"),
+    ((0.0, 0.0, 20.0, 0.0, 10.0, 0.0, 0.1), ("e_y = 10.0 m, kappa = 0.1 1/m: the point is at "
+     "the path's centre of curvature (kappa e_y = 1), where e_y'' is not defined")),
+])
+def test_lateral_deviation_acceleration_refuses_bad_arguments_by_name(args, message):
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        lateral_deviation_acceleration(*args)
+
+
+def test_the_compiled_twin_gives_nan_at_the_centre_of_curvature():
+    # a compiled loop must not raise: NaN there, which the imu estimator treats as a lost sample
+    assert math.isnan(lateral_deviation_acceleration_kernel(0.0, 0.0, 20.0, 0.0, 10.0, 0.0, 0.1))
 
 
 class _Recorder:

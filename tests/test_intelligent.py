@@ -9,6 +9,7 @@ sympy (gain formulas), or a peer controller measured on the same runs (the class
 from __future__ import annotations
 
 import math
+import re
 from typing import NamedTuple
 
 import numba
@@ -436,6 +437,71 @@ def test_nonfinite_measurement_holds_output_counts_and_flags():
         y += (0.5 + u) * dt
     assert not c.status.nonfinite and c.status.n_nonfinite == 5
     assert abs(y - 1.0) < 1e-3  # constant F on y' = F + u: converges (exact estimator)
+
+
+@pytest.mark.parametrize("arg", ["y", "y_ref", "y_ref_dot", "y_ref_ddot"])
+@pytest.mark.parametrize("bad", ["a", None, True, np.array([1.0, 2.0]), [1.0], 1j])
+def test_step_refuses_what_is_not_one_real_number_naming_the_argument(arg, bad):
+    """Text, None, a boolean, an array or a complex number: a ValueError naming the argument and
+    the value (not numba's TypeError), and the state is untouched (the next step is the one a
+    fresh controller takes)."""
+    c = IP(alpha=1.0, kp=4.0, dt=0.01, window=5)
+    kw = dict(y=0.5, y_ref=1.0, y_ref_dot=0.0, y_ref_ddot=0.0)
+    kw[arg] = bad
+    with pytest.raises(ValueError, match=rf"^{arg} = {re.escape(repr(bad))}: expected a real"):
+        c.step(**kw)
+    assert c.status.samples == 0
+
+
+def test_step_takes_ints_and_numpy_scalars_as_the_floats_they_are():
+    ref = IPD(alpha=1.0, kp=4.0, kd=4.0, dt=0.01, window=5)
+    c = IPD(alpha=1.0, kp=4.0, kd=4.0, dt=0.01, window=5)
+    for k in range(12):
+        y = float(k % 3)
+        want = ref.step(y, 1.0, 0.0, 0.0)
+        got = c.step([np.float64(y), np.float32(y), int(y), np.array(y)][k % 4], 1,
+                     np.float32(0.0), np.int64(0))
+        assert got == want and type(got) is float
+
+
+@pytest.mark.parametrize("cls", [IP, IPD])
+def test_an_overflowing_law_raises_naming_the_inputs_and_resets(cls):
+    """Finite inputs of the order of 1e300 overflow the law (the compiled kernel returns NaN or
+    inf): the shell raises instead, naming the inputs and the command, and resets the
+    controller, whose window held the overflowed values (every later output would be NaN)."""
+    gains = dict(kd=2.0) if cls is IPD else {}
+    c = cls(alpha=2.0, kp=5.0, dt=0.01, window=10, u0=0.3, **gains)
+    for _ in range(12):
+        c.step(0.0, 0.0)
+    with pytest.raises(ValueError, match=r"step\(y = 1e\+308, y_ref = 0\.0, .*the command u = "
+                                         r"(nan|-?inf) is not finite.*controller was reset"):
+        c.step(1e308, 0.0)
+    assert c.status.samples == 0 and c.status.u == 0.3  # as after reset(): u0 held
+    fresh = cls(alpha=2.0, kp=5.0, dt=0.01, window=10, u0=0.3, **gains)
+    for k in range(15):  # and it works again, as a fresh controller
+        assert c.step(0.1 * k, 1.0) == fresh.step(0.1 * k, 1.0)
+    # a large reference overflows as well (the error e = y - y_ref)
+    with pytest.raises(ValueError, match=r"y_ref = -1e\+308"):
+        for _ in range(12):
+            c.step(1e308, -1e308)
+
+
+@pytest.mark.parametrize(("cls", "gains", "message"), [
+    (IP, dict(ki=3.0), r"ki = 3\.0 1/s\^2: must be 0 for an IP \(use IPI"),
+    (IP, dict(kd=1.0), r"kd = 1\.0 1/s: must be 0 for an IP \(use IPD"),
+    (IP, dict(ki="3"), r"ki = '3' 1/s\^2: expected a real number"),
+    (IPD, dict(kd=1.0, ki=2.0), r"ki = 2\.0 1/s\^3: must be 0 for an IPD \(use IPID"),
+    (IPI, dict(ki=1.0, kd=1.0), r"kd = 1\.0 1/s: must be 0 for nu = 1"),
+])
+def test_a_shorthand_refuses_the_gains_it_fixes_at_zero(cls, gains, message):
+    """IP(ki=3) used to give an iPI silently (its docstring says ki = kd = 0 fixed)."""
+    with pytest.raises(ValueError, match=message):
+        cls(alpha=1.0, kp=1.0, dt=0.01, window=5, **gains)
+
+
+def test_a_shorthand_takes_an_explicit_zero_for_a_gain_it_fixes():
+    assert IP(alpha=1.0, kp=1.0, dt=0.01, window=5, ki=0.0, kd=0).params.ki == 0.0
+    assert IPD(alpha=1.0, kp=1.0, kd=1.0, dt=0.01, window=5, ki=0.0).params.ki == 0.0
 
 
 @pytest.mark.parametrize("nu", [1, 2])

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 
@@ -647,3 +648,198 @@ def test_yaw_error_reference_is_the_path_following_3dof_and_the_run_starts_on_it
     tr = simulate(sc)
     assert abs(prep.beta_ref[0]) > 1e-3  # a material sideslip at the start
     assert abs(tr["yaw_error"][0]) < 1e-12 and abs(tr["course_error"][0]) < 1e-12
+
+
+def test_simulate_takes_a_named_scenarios_name_and_refuses_anything_else():
+    """``simulate("paper")`` used to fail with AttributeError: a name is the named scenario
+    with its defaults (flatfree.scenarios.named_scenario); anything else is a ValueError that
+    says what to pass."""
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare
+
+    assert prepare("paper-noise-free").scenario == named_scenario("paper-noise-free")
+    tr = simulate("paper")
+    assert tr.meta["scenario"] == "paper" and tr.status is Status.COMPLETED
+    for bad in ("no-such-scenario", 42, None, {"name": "paper"}):
+        with pytest.raises(ValueError, match=r"sc = .*: expected a Scenario \(flatfree\."
+                                             r"load_scenario\(path\).* paper, "):
+            simulate(bad)
+
+
+class _Failing:
+    """A Python controller that drives like the built-in one until ``t_bad``, then returns
+    ``bad`` (per channel: NaN where the tuple says so) from then on."""
+
+    schedule = "path"
+
+    def __init__(self, sc, t_bad, bad):
+        self.door = _NaturalDoor(sc)
+        self.t_bad = t_bad
+        self.bad = bad
+
+    def reset(self):
+        self.door.reset()
+
+    def step(self, t, measurement, reference, applied):
+        out = self.door.step(t, measurement, reference, applied)
+        if t >= self.t_bad - 1e-9:
+            return self.bad(out)
+        return out
+
+
+def test_a_python_controllers_nonfinite_commands_are_counted_and_warned_about():
+    """A Python controller returning (nan, nan) from t = 0.5 s: the actuators hold the last
+    command (the run still completes, 1.5 s), the trajectory's meta counts the steps per channel
+    with the first one's time, and one RuntimeWarning names them."""
+    import warnings
+
+    sc = _scenario(timing=Timing(duration_s=1.5, log_dt_s=0.001))
+    ctrl = _Failing(sc, 0.5, lambda out: (math.nan, math.nan))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        tr = simulate(sc, controller=ctrl)
+    mine = [w for w in caught if issubclass(w.category, RuntimeWarning)]
+    assert len(mine) == 1
+    assert str(mine[0].message).startswith(
+        "controller _Failing: step returned a non-finite command at 1000 (torque) and 1000 "
+        "(steer) of its 1500 calls, the first at t = 0.5 s (control step 500); the actuators "
+        "held the previous command")
+    assert mine[0].filename == __file__  # attributed to the caller of simulate
+    assert tr.status is Status.COMPLETED
+    assert tr.meta["n_nonfinite_torque_cmd"] == 1000 and tr.meta["n_nonfinite_steer_cmd"] == 1000
+    assert tr.meta["first_nonfinite_cmd_t_s"] == pytest.approx(0.5, abs=1e-12)
+    bad = tr.time >= 0.5 - 1e-9
+    assert np.all(np.isnan(tr["steer_cmd"][bad])) and np.all(np.isfinite(tr["steer_cmd"][~bad]))
+    # the actuators hold the last finite command: the applied steer settles on it
+    held = tr["steer_cmd"][~bad][-1]
+    np.testing.assert_allclose(tr["steer"][tr.time >= 1.0], held, rtol=0, atol=1e-9)
+    # one channel only: counted per channel
+    steer_only = _Failing(sc, 1.0, lambda out: (out[0], math.inf))
+    with pytest.warns(RuntimeWarning, match=r"at 0 \(torque\) and 500 \(steer\) of its 1500 "
+                                            r"calls, the first at t = 1 s"):
+        tr = simulate(sc, controller=steer_only)
+    assert (tr.meta["n_nonfinite_torque_cmd"], tr.meta["n_nonfinite_steer_cmd"]) == (0, 500)
+
+
+def test_finite_commands_count_zero_and_warn_nothing():
+    import warnings
+
+    sc = _scenario(timing=Timing(duration_s=0.2, log_dt_s=0.01))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for tr in (simulate(sc), simulate(sc, controller=_NaturalDoor(sc))):
+            assert tr.meta["n_nonfinite_torque_cmd"] == 0
+            assert tr.meta["n_nonfinite_steer_cmd"] == 0
+            assert tr.meta["first_nonfinite_cmd_t_s"] is None
+
+
+@pytest.mark.parametrize("bad", ["0.1", None, (0.0,), (0.0, "a"), (True, 0.0),
+                                 (np.zeros(2), 0.0)])
+def test_a_python_controllers_command_that_is_not_two_real_numbers_is_refused(bad):
+    sc = _scenario(timing=Timing(duration_s=0.2, log_dt_s=0.01))
+    ctrl = _Failing(sc, 0.1, lambda out: bad)
+    with pytest.raises(ValueError, match=r"controller\.step\(t = 0\.1 s, \.\.\.\) = .* "
+                                         r"\(_Failing\): expected \(torque \[N m\], steer"):
+        simulate(sc, controller=ctrl)
+
+
+def test_a_builtin_controllers_nonfinite_commands_are_counted_without_a_warning():
+    """The compiled loop counts them too: a speed sensor biased by 1e307 m/s overflows the
+    natural-output controller's speed loop (its torque command is NaN from when its window is
+    full, 0.1 s); the actuators hold the torque and the run goes on. A built-in controller's
+    NaN is its documented policy (a measurement fault): counted, not warned about."""
+    import warnings
+
+    from flatfree.sensors import SensorChannel, SensorSuite
+
+    sc = _scenario(plant="3dof", sensors=SensorSuite({"vx": SensorChannel(bias=1e307)}),
+                   timing=Timing(duration_s=0.5, log_dt_s=0.001))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tr = simulate(sc)
+    nan_cmd = np.isnan(tr["torque_cmd"])
+    assert nan_cmd.sum() > 300 and not np.isnan(tr["steer_cmd"]).any()
+    assert tr.meta["n_nonfinite_torque_cmd"] == nan_cmd.sum()  # logged at every control step
+    assert tr.meta["n_nonfinite_steer_cmd"] == 0
+    assert tr.meta["first_nonfinite_cmd_t_s"] == tr.time[np.argmax(nan_cmd)]
+
+
+def test_natural_output_controller_step_refuses_what_is_not_a_real_number():
+    """``step(vx="20")`` (or None, an array) used to give a numba TypingError: a ValueError
+    naming the argument, its value and its unit, before anything is stepped."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import NaturalOutputController
+    from flatfree.vehicles import load_vehicle
+
+    c = NaturalOutputController(dt=0.001,
+                                actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")))
+    base = dict(vx=20.0, r=0.0, e_y=0.01, kappa=0.0, vx_ref=20.0)
+    names = {"vx": "m/s", "r": "rad/s", "e_y": "m", "kappa": "1/m", "vx_ref": "m/s",
+             "ax_ref": "m/s^2", "e_y_ref": "m", "e_y_ref_dot": "m/s", "e_y_ref_ddot": "m/s^2",
+             "applied_torque": "N m", "applied_steer": "rad", "e_y_ddot": "m/s^2"}
+    for name, unit in names.items():
+        for bad in ("20", None, np.array([1.0, 2.0]), False):
+            if bad is None and name.startswith("applied_"):
+                continue  # None: the actuators' model (documented)
+            with pytest.raises(ValueError, match=rf"^{name} = {re.escape(repr(bad))} "
+                                                 rf"{re.escape(unit)}: expected a real number"):
+                c.step(**{**base, name: bad})
+    assert c._prev.tolist() == [0.0, 0.0]  # nothing was stepped
+    # ints and NumPy scalars are the numbers they are
+    fresh = NaturalOutputController(
+        dt=0.001, actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")))
+    for _ in range(150):
+        assert c.step(vx=20, r=np.float32(0.0), e_y=np.float64(0.01), kappa=0, vx_ref=20.0) \
+            == fresh.step(**base)
+
+
+def test_natural_output_controller_overflow_raises_and_nan_measurements_do_not():
+    """Finite inputs that overflow the law raise, naming the inputs and the command, and reset
+    the controller at its last finite commands: two speeds of 1e308 m/s in the speed loop's
+    window make its F estimate inf - inf (one is clipped: the torque limit). A NaN or infinite
+    measurement is the documented hold (finite outputs, no error)."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import NaturalOutputController
+    from flatfree.vehicles import load_vehicle
+
+    c = NaturalOutputController(dt=0.001,
+                                actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")))
+    base = dict(vx=20.0, r=0.0, e_y=0.01, kappa=0.0, vx_ref=20.0)
+    for _ in range(150):
+        last = c.step(**base)
+    for name in ("vx", "r", "e_y", "kappa", "vx_ref", "e_y_ref", "e_y_ddot"):
+        for bad in (math.nan, math.inf, -math.inf):
+            tw, delta = c.step(**{**base, name: bad})
+            assert math.isfinite(tw) and math.isfinite(delta), (name, bad)
+    last = c.step(**{**base, "vx": 1e308})
+    assert last[0] == -6000.0  # -inf from F_hat = +inf, clipped at the torque limit
+    with pytest.raises(ValueError, match=r"NaturalOutputController\.step\(vx = 1e\+308, r = 0\.0"
+                                         r".*: the command torque = nan is not finite.*"
+                                         r"controller was reset \(reset\(steer0="):
+        c.step(**{**base, "vx": 1e308})
+    fresh = NaturalOutputController(
+        dt=0.001, actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")))
+    fresh.reset(torque0=last[0], steer0=last[1])
+    for _ in range(150):
+        assert c.step(**base) == fresh.step(**base)
+
+
+def test_a_track_run_longer_than_its_path_is_capped_near_the_path_end():
+    """The loop allocates its log and sensor noise for the whole duration: a track run, which
+    ends where its path ends, is capped at twice its default horizon (1.5 x the reference's
+    duration + 5 s); a shorter request is kept, and any on the clock schedule."""
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare
+
+    sc = named_scenario("paper-noise-free")
+    default = prepare(sc)
+    horizon = 1.5 * default.reference.duration + 5.0
+    dt = sc.timing.plant_dt_s
+    assert default.n_steps == int(round(horizon / dt))
+    long = prepare(sc.with_(timing=Timing(duration_s=3600.0)))
+    assert long.n_steps == int(round(2.0 * horizon / dt))
+    assert prepare(sc.with_(timing=Timing(duration_s=20.0))).n_steps == int(round(20.0 / dt))
+    # the clock schedule keeps what is asked
+    clock = sc.with_(controller_settings={**sc.controller_settings, "schedule": "time"})
+    assert prepare(clock).n_steps == int(round(default.reference.duration / dt))
+    assert prepare(clock.with_(timing=Timing(duration_s=3600.0))).n_steps == 3_600_000

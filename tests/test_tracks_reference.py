@@ -461,3 +461,52 @@ def test_reference_argument_errors():
     with pytest.raises(KeyError, match="no signal 'speed'"):
         ref["speed"]
     assert set(ref.names) >= {"vx", "r_dot", "e_y_ref_ddot", "kappa"}
+
+
+def test_make_reference_loads_a_track_given_by_name_or_path(tmp_path):
+    """``make_reference("Monza", ...)`` used to fail with AttributeError: a bundled track's name
+    or a track file's path is loaded with load_track (its defaults), the same reference."""
+    lim = T.SpeedLimits(a_lat_max=3.0)
+    want = T.make_reference(T.load_track("Norisring"), lim, dt=0.05)
+    got = T.make_reference("norisring", lim, dt=0.05)
+    np.testing.assert_array_equal(got.table, want.table)
+    assert got.name == want.name == "Norisring"
+    theta = np.linspace(0.0, 2.0 * np.pi, 120, endpoint=False)
+    path = tmp_path / "ring.csv"
+    path.write_text("x_m,y_m\n" + "".join(f"{60.0 * math.cos(a)!r},{60.0 * math.sin(a)!r}\n"
+                                          for a in theta))
+    want = T.make_reference(T.load_track(path), 12.0, dt=0.05)
+    for given in (path, str(path)):
+        np.testing.assert_array_equal(T.make_reference(given, 12.0, dt=0.05).table, want.table)
+    with pytest.raises(ValueError, match="no-such-track"):
+        T.make_reference("no-such-track", lim)
+
+
+def test_make_reference_takes_a_mapping_of_speed_limits():
+    """A mapping of SpeedLimits' fields is SpeedLimits(**it) (it used to fail in float());
+    an unknown key or a bad value is a ValueError naming it."""
+    circle = T.circle_track(40.0)
+    want = T.make_reference(circle, T.SpeedLimits(a_lat_max=3.0, v_max=20.0), dt=0.05)
+    got = T.make_reference(circle, {"a_lat_max": 3, "v_max": 20.0}, dt=0.05)
+    np.testing.assert_array_equal(got.table, want.table)
+    with pytest.raises(ValueError, match=r"unknown limit 'a_lat'; SpeedLimits has a_lat_max, "):
+        T.make_reference(circle, {"a_lat": 3.0})
+    with pytest.raises(ValueError, match=r"a_lat_max = '3' m/s\^2: expected a real number"):
+        T.make_reference(circle, {"a_lat_max": "3"})
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    (dict(track=None), r"track = None: expected a Track, a bundled track's name or the path"),
+    (dict(track=42), r"track = 42: expected a Track"),
+    (dict(speed="20"), (r"speed = '20': expected SpeedLimits \(or a mapping of its fields\), "
+                        r"a SpeedProfile, a constant speed in m/s, or None")),
+    (dict(speed=[10.0]), r"speed = \[10\.0\]: expected SpeedLimits"),
+    (dict(speed=-3.0), r"speed = -3\.0 m/s: must be > 0"),
+    (dict(laps="2"), r"laps = '2': must be an integer >= 1"),
+    (dict(laps=None), r"laps = None: must be an integer >= 1"),
+    (dict(speed=None, vehicle="peugeot406"), r"vehicle = 'peugeot406': expected VehicleParams"),
+])
+def test_make_reference_refuses_bad_arguments_naming_them(kwargs, message):
+    args = {"track": T.circle_track(40.0), "speed": 10.0, **kwargs}
+    with pytest.raises(ValueError, match=message):
+        T.make_reference(args.pop("track"), args.pop("speed"), **args)

@@ -7,8 +7,8 @@ import math
 import numpy as np
 
 __all__ = [
-    "as_real", "real_array", "finite", "positive", "positive_or_inf", "nonnegative", "in_range",
-    "whole",
+    "as_real", "real", "real_array", "finite", "positive", "positive_or_inf", "nonnegative",
+    "in_range", "whole",
 ]
 
 
@@ -50,12 +50,19 @@ def real_array(name: str, value) -> np.ndarray:
     return np.asarray(a, dtype=np.float64)
 
 
-def finite(name: str, value, unit: str = "") -> float:
-    """Return ``float(value)``; raise ``ValueError`` if it is not a finite real number (text and
-    booleans are not numbers here)."""
+def real(name: str, value, unit: str = "") -> float:
+    """Return ``float(value)``; raise ``ValueError`` if it is not one real number (:func:`as_real`).
+    Non-finite values pass: their policy is the caller's."""
     v = as_real(value)
     if v is None:
         raise ValueError(f"{_fmt(name, value, unit)}: expected a real number")
+    return v
+
+
+def finite(name: str, value, unit: str = "") -> float:
+    """Return ``float(value)``; raise ``ValueError`` if it is not a finite real number (text and
+    booleans are not numbers here)."""
+    v = real(name, value, unit)
     if not math.isfinite(v):
         raise ValueError(f"{_fmt(name, value, unit)}: must be finite")
     return v

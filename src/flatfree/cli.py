@@ -831,8 +831,7 @@ def _note_short_or_capped(sc, tr) -> None:
     if (tr.completed and requested is not None and t.size
             and t[-1] + sc.timing.log_dt_s < requested - 1e-9):
         _err(f"note: the run ended at {t[-1]:.2f} s, not at the requested duration of "
-             f"{requested:g} s (timing.duration_s; its sensor noise and log were sized for "
-             f"it): {_reference_end(sc)}")
+             f"{requested:g} s (timing.duration_s): {_reference_end(sc)}")
     startup = sc.timing.startup_s
     if not np.any(t >= (t[0] if t.size else 0.0) + startup):
         end = f"its log ends at {t[-1]:.2f} s" if t.size else "it logged nothing"

@@ -186,7 +186,16 @@ class ReferenceSpec:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Timing:
-    """Plant step, control period, logging period, start-up interval, duration (all seconds)."""
+    """Plant step, control period, logging period, start-up interval, duration (all seconds).
+
+    ``duration_s`` (default None): how long the run may last. On the controllers' default
+    reference schedule (``schedule = "path"``: the reference read at the car's arc length) a
+    run ends where its reference path ends, so None gives it 1.5 times the reference's
+    duration plus 5 s (a car slower than the profile still finishes), and a longer
+    ``duration_s`` is capped at twice that horizon (:func:`flatfree.simulation.prepare`; the
+    loop allocates its log and sensor noise for the whole duration). On the clock schedule
+    (``schedule = "time"``) None is the reference's duration and a ``duration_s`` is kept.
+    """
 
     plant_dt_s: float = 0.001
     control_dt_s: float = 0.001

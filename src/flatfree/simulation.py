@@ -64,6 +64,7 @@ import numba
 import numpy as np
 from numba import njit
 
+from flatfree._validate import as_real
 from flatfree._vecmath import no_refcount
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers.intelligent import IST
@@ -85,6 +86,7 @@ from flatfree.metrics import wrap_angle
 from flatfree.models.bicycle3dof import Bicycle3DoFParams, rk4_step_into
 from flatfree.models.tendof import NU, TenDoF, TenDoFState, drive_speed, rk4_step_kernel
 from flatfree.scenario import Scenario
+from flatfree.scenarios import SCENARIO_NAMES, named_scenario
 from flatfree.sensors import sense_step
 from flatfree.tracks import (
     GC,
@@ -93,7 +95,7 @@ from flatfree.tracks import (
     SpeedLimits,
     frenet_init,
     frenet_project,
-    lateral_deviation_acceleration,
+    lateral_deviation_acceleration_kernel,
     load_track,
     make_reference,
     progress,
@@ -234,9 +236,22 @@ def _time_at(table, s, i):
 # loop state kept between calls of _closed_loop (a Python controller pauses the loop)
 (_LS_INIT, _LS_SEG, _LS_SEG_M, _LS_S_PREV, _LS_S_UNW, _LS_S_PREV_M, _LS_S_UNW_M, _LS_T_REF,
  _LS_T_CTRL, _LS_TW_APP, _LS_DE_APP, _LS_TW_CMD, _LS_DE_CMD, _LS_ME_Y, _LS_N_LOG,
- _LS_RESUME, _LS_ST_ROW, _LS_VX_P, _LS_VY_P, _LS_R_P, _LS_BANK_ROW) = range(21)
-_LS_N = 21
+ _LS_RESUME, _LS_ST_ROW, _LS_VX_P, _LS_VY_P, _LS_R_P, _LS_BANK_ROW,
+ _LS_NF_TW, _LS_NF_DE, _LS_NF_FIRST) = range(24)
+_LS_N = 24
 _PAUSE = 3  # status code: a Python controller must give the commands for step k
+
+
+@njit(**_JIT_LOOP)
+def _count_nonfinite(ls, k, tw_cmd, delta_cmd):
+    """Count a control step whose command is not finite, per channel, in the loop state ``ls``
+    (and the plant step ``k`` of the first one); the actuators hold the previous command."""
+    if not math.isfinite(tw_cmd):
+        ls[_LS_NF_TW] += 1.0
+    if not math.isfinite(delta_cmd):
+        ls[_LS_NF_DE] += 1.0
+    if ls[_LS_NF_FIRST] < 0.0:
+        ls[_LS_NF_FIRST] = k
 
 
 def _loop_scratch(n: int) -> tuple:
@@ -290,6 +305,9 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         ls[_LS_VY_P] = math.nan
         ls[_LS_R_P] = math.nan
         ls[_LS_BANK_ROW] = 0.0
+        ls[_LS_NF_TW] = 0.0  # control steps with a non-finite torque command
+        ls[_LS_NF_DE] = 0.0  # ... steer command
+        ls[_LS_NF_FIRST] = -1.0  # plant step of the first one (-1: none)
     seg = int(ls[_LS_SEG])
     seg_m = int(ls[_LS_SEG_M])
     s_prev = ls[_LS_S_PREV]
@@ -382,14 +400,17 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             meas[6] = me_y
             meas[7] = me_psi
             if form_ey_ddot:
-                meas[10] = lateral_deviation_acceleration(meas[8], meas[9], meas[3], meas[4],
-                                                          me_y, me_psi, me_kap)
+                # NaN at the path's centre of curvature (no foot point moves with the car)
+                meas[10] = lateral_deviation_acceleration_kernel(meas[8], meas[9], meas[3],
+                                                                 meas[4], me_y, me_psi, me_kap)
             sample_reference(cref_table, t_ref, crow)
             if kind == _PYTHON:
                 status = _PAUSE  # hand the measurement to the Python controller
                 break
             tw_cmd, delta_cmd = vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon,
                                              f_lat, f_yaw, meas, crow[1:], tw_app, delta_app)
+            if not (math.isfinite(tw_cmd) and math.isfinite(delta_cmd)):
+                _count_nonfinite(ls, k, tw_cmd, delta_cmd)  # held by the actuators
         vx_p = truth[3]
         vy_p = truth[4]
         r_p = truth[5]
@@ -634,12 +655,14 @@ def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
         "that speed", UserWarning, stacklevel=3)
 
 
-def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepared:
-    """Build the vehicle, reference, controller and initial state of a scenario.
+def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> Prepared:
+    """Build the vehicle, reference, controller and initial state of a scenario (or of the
+    named scenario of that name, as :func:`simulate`).
 
     With ``python_controller`` the built-in controller is replaced by a :data:`KIND.PYTHON`
     placeholder and the schedule is the object's ``schedule`` attribute (default ``"path"``).
     """
+    sc = _as_scenario(sc)
     vehicle = load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides))
     ref = _reference(sc, vehicle)
     _warn_if_beyond_steer_lock(ref, vehicle)
@@ -686,11 +709,16 @@ def prepare(sc: Scenario, *, python_controller: object | None = None) -> Prepare
         ctrl = build_mfc(sc.controller, settings, dt=sc.timing.control_dt_s, actuators=act,
                          mass=vehicle.mass, iz=vehicle.iz, lf=vehicle.lf,
                          steer0=float(lat.delta[0]))
-    if sc.timing.duration_s is not None:
+    if schedule == "path":
+        # the run ends at the end of the path: by default leave time for a car slower than the
+        # profile; a longer requested duration is capped at twice that horizon (the loop's
+        # sensor noise and log are allocated for the whole duration: 3600 s asked of a 99 s
+        # lap took 0.5 GB), far beyond any car that follows the profile
+        horizon = 1.5 * ref.duration + 5.0
+        duration = horizon if sc.timing.duration_s is None else min(sc.timing.duration_s,
+                                                                     2.0 * horizon)
+    elif sc.timing.duration_s is not None:
         duration = sc.timing.duration_s
-    elif schedule == "path":
-        # the lap ends at the end of the path; leave time for a car slower than the profile
-        duration = 1.5 * ref.duration + 5.0
     else:
         duration = ref.duration
     n_steps = int(round(duration / sc.timing.plant_dt_s))
@@ -757,7 +785,8 @@ class PythonController(Protocol):
       measured pose from the path, the measured accelerations ax, ay and the deviation's
       second derivative formed from them
       (:func:`flatfree.tracks.lateral_deviation_acceleration`); NaN where
-      a sensor fault blanks a channel);
+      a sensor fault blanks a channel, and e_y'' where the measured pose is at the path's
+      centre of curvature);
     - ``reference``: a float array in the layout :class:`flatfree.controllers.vehicle.CREF`
       (speed, acceleration, flat-output and lateral-deviation references, path curvature,
       the path correction's d y2 / d r and -beta_ref'),
@@ -770,26 +799,64 @@ class PythonController(Protocol):
     the actuators. ``reset()``, if present, is called before the run. An optional attribute
     ``schedule`` (``"path"`` or ``"time"``, default ``"path"``) chooses the reference schedule.
     The arrays are the loop's own buffers: copy them to keep them.
+
+    A command that is not a real number (text, ``None``, an array) raises ``ValueError``
+    naming the call. A non-finite command (NaN, inf) is not an error: the actuators hold the
+    previous command in its place (:func:`flatfree.actuators.actuate_step`), so a controller
+    that keeps returning NaN leaves the car on its last command. :func:`simulate` counts such
+    steps per channel in the trajectory's ``meta`` and warns once (``RuntimeWarning``) after
+    the run, naming the first one.
     """
 
     def step(self, t: float, measurement: np.ndarray, reference: np.ndarray,
              applied: np.ndarray) -> tuple[float, float]: ...
 
 
-def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajectory:
+def _as_scenario(sc) -> Scenario:
+    """``sc``, or the named scenario of that name (:func:`flatfree.scenarios.named_scenario`);
+    ``ValueError`` saying what to pass for anything else."""
+    if isinstance(sc, Scenario):
+        return sc
+    if isinstance(sc, str) and sc in SCENARIO_NAMES:
+        return named_scenario(sc)
+    raise ValueError(f"sc = {sc!r}: expected a Scenario (flatfree.load_scenario(path) for a "
+                     "scenario file, flatfree.named_scenario(name, ...) for a named one with "
+                     f"options) or a named scenario's name: {', '.join(SCENARIO_NAMES)}")
+
+
+def _python_command(controller, t: float, out) -> tuple[float, float]:
+    """A Python controller's return value as (torque, steer) floats; ``ValueError`` naming the
+    call for anything but two real numbers (non-finite ones pass: :class:`PythonController`)."""
+    try:
+        tw, delta = out
+    except (TypeError, ValueError):
+        tw = delta = None
+    tw_f = as_real(tw)
+    delta_f = as_real(delta)
+    if tw_f is None or delta_f is None:
+        raise ValueError(f"controller.step(t = {t!r} s, ...) = {out!r} "
+                         f"({type(controller).__name__}): expected (torque [N m], steer [rad]), "
+                         "two real numbers")
+    return tw_f, delta_f
+
+
+def simulate(sc: Scenario | str, controller: PythonController | None = None) -> Trajectory:
     """Run a scenario in the compiled closed loop; never raises on a failed run (see status).
 
     Parameters
     ----------
-    sc : Scenario
+    sc : Scenario or str
         The run (vehicle, plant, reference, controller and its settings, timing, sensors,
-        actuators, road, faults, seed).
+        actuators, road, faults, seed), or a named scenario's name (``"paper"``:
+        :func:`flatfree.scenarios.named_scenario` with its defaults). Anything else raises
+        ``ValueError``.
     controller : PythonController, optional
         A user's controller (Python object with ``step``) replacing ``sc.controller``. The same
         compiled engine runs, pausing at every control step to call it: a few microseconds of
         Python per call (measured at 1 kHz on the 10DoF, 2026-11-22: ~270x real time with a
         controller returning constants, ~210x with one calling the built-in compiled kernel;
-        ~870x without; benchmarks/README.md "Closed loop").
+        ~870x without; benchmarks/README.md "Closed loop"). Its commands must be real numbers
+        (``ValueError`` otherwise); non-finite ones are counted and warned about (below).
 
     Returns
     -------
@@ -800,7 +867,16 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
         time of the loop) and ``wall_time_s``, which leave out compiling the loop or loading
         it from numba's cache (``compile_time_s``; ``compiled_new_loop`` says whether this
         call did it, ``compiled_while_timed`` that the timed run compiled nothing more).
+        ``n_nonfinite_torque_cmd`` and ``n_nonfinite_steer_cmd`` count the control steps
+        whose torque / steer command was not finite, and ``first_nonfinite_cmd_t_s`` is the
+        time of the first such step (None: none). The actuators hold the previous command in
+        place of a non-finite one (:func:`flatfree.actuators.actuate_step`), so such a run
+        can end "completed" with the car on stale commands: a built-in controller's NaN
+        during a measurement fault is within its documented policy (the counts say how long),
+        while for a Python controller ``simulate`` also warns once (``RuntimeWarning``: the
+        first step's time and the counts).
     """
+    sc = _as_scenario(sc)
     if controller is not None and not callable(getattr(controller, "step", None)):
         raise ValueError(f"controller = {controller!r}: expected an object with a step(t, "
                          "measurement, reference, applied) method")
@@ -872,15 +948,26 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
     compiled = len(_closed_loop.signatures)
     t0 = time.perf_counter()
     k0 = 0
+    n_calls = 0
     while True:
         code, k_stop, rows = _closed_loop(*loop_args(k0))
         if code != _PAUSE:
             break
         applied[0] = ls[_LS_TW_APP]
         applied[1] = ls[_LS_DE_APP]
-        tw, delta = controller.step(k_stop * timing.plant_dt_s, meas, crow[1:], applied)
-        ls[_LS_TW_CMD] = float(tw)
-        ls[_LS_DE_CMD] = float(delta)
+        t_call = k_stop * timing.plant_dt_s
+        out = controller.step(t_call, meas, crow[1:], applied)
+        n_calls += 1
+        # the common path: a tuple of two floats (Python or NumPy), one test each
+        if type(out) is tuple and len(out) == 2 and isinstance(out[0], float) and isinstance(
+                out[1], float):
+            tw, delta = out
+        else:
+            tw, delta = _python_command(controller, t_call, out)
+        if not (math.isfinite(tw) and math.isfinite(delta)):
+            _count_nonfinite(ls, k_stop, tw, delta)
+        ls[_LS_TW_CMD] = tw
+        ls[_LS_DE_CMD] = delta
         ls[_LS_RESUME] = 1.0
         k0 = k_stop
     wall = time.perf_counter() - t0
@@ -913,7 +1000,21 @@ def simulate(sc: Scenario, controller: PythonController | None = None) -> Trajec
         "compile_time_s": compile_s,
         "compiled_new_loop": compiled > compiled_before,
         "compiled_while_timed": len(_closed_loop.signatures) > compiled,
+        # control steps whose command was not finite (the actuators held the previous one)
+        "n_nonfinite_torque_cmd": int(ls[_LS_NF_TW]),
+        "n_nonfinite_steer_cmd": int(ls[_LS_NF_DE]),
+        "first_nonfinite_cmd_t_s": (None if ls[_LS_NF_FIRST] < 0.0
+                                    else float(ls[_LS_NF_FIRST]) * timing.plant_dt_s),
     }
+    if controller is not None and ls[_LS_NF_FIRST] >= 0.0:
+        warnings.warn(
+            f"controller {type(controller).__name__}: step returned a non-finite command at "
+            f"{meta['n_nonfinite_torque_cmd']} (torque) and {meta['n_nonfinite_steer_cmd']} "
+            f"(steer) of its {n_calls} calls, the first at t = "
+            f"{meta['first_nonfinite_cmd_t_s']:.6g} s (control step "
+            f"{int(ls[_LS_NF_FIRST]) // timing.control_every}); the actuators held the previous "
+            "command there (flatfree.actuators.actuate_step). Counts in the trajectory's meta "
+            "(n_nonfinite_torque_cmd, n_nonfinite_steer_cmd)", RuntimeWarning, stacklevel=2)
     return Trajectory(time=log[:, LOG.T], signals=signals, units=units, status=status,
                       status_time=None if status is Status.COMPLETED else sim_time, meta=meta)
 

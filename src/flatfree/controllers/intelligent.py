@@ -102,6 +102,11 @@ Start, limits, bad samples
   by ``dt (F_hat + alpha u_{k-1})``); exact on the ultra-local model with constant F (with the
   ``"model"`` derivative for nu = 2). Before the first finite
   sample nothing is stored, and before the window is full the last finite value is repeated.
+* Overflow: finite values so large that the law's arithmetic overflows (of the order of
+  1e300) make the compiled step's output NaN or infinite, and the window then holds them.
+  The compiled kernel returns that output as it is (no check in the loop); the Python shell
+  (:meth:`IntelligentController.step`) raises ``ValueError`` naming the inputs instead, after
+  resetting the controller.
 * Outside estimates (:func:`intelligent_step_external`): a loop with a better source of F, y
   and y' (the natural-output controller's inertial estimator) runs the same law, limits and
   bookkeeping on them; the window keeps receiving y and the applied u but forms no estimate
@@ -130,7 +135,7 @@ import numpy as np
 
 from flatfree._validate import finite, positive
 from flatfree._vecmath import no_refcount
-from flatfree.controllers._shell import CompiledController
+from flatfree.controllers._shell import CompiledController, nonfinite_command, real_arg
 from flatfree.estimators import derivative_weights, f_estimator_weights
 
 __all__ = [
@@ -1075,9 +1080,29 @@ class IntelligentController(CompiledController):
     ) -> float:
         """One sample: measurement ``y`` at ``t_k`` and the reference; returns the applied ``u_k``.
 
-        See :func:`intelligent_step`.
+        See :func:`intelligent_step`. Each argument must be one real number (``ValueError``
+        naming it otherwise: text, ``None``, an array); a non-finite ``y`` or reference is a
+        missing sample (the previous output is held, module docstring). The returned output is
+        always finite: should the law overflow (values of the order of 1e300 in ``y``, the
+        reference, or a sample still in the window), the step raises ``ValueError`` naming the
+        inputs, after resetting the controller (as :meth:`reset`: the window held the
+        overflowed values, which would make every later output NaN).
         """
-        return intelligent_step(self._p, self._s, y, y_ref, y_ref_dot, y_ref_ddot)
+        # the common path (floats) costs one type test per argument (_shell docstring)
+        y = y if isinstance(y, float) else real_arg("y", y)
+        y_ref = y_ref if isinstance(y_ref, float) else real_arg("y_ref", y_ref)
+        if not isinstance(y_ref_dot, float):
+            y_ref_dot = real_arg("y_ref_dot", y_ref_dot)
+        if not isinstance(y_ref_ddot, float):
+            y_ref_ddot = real_arg("y_ref_ddot", y_ref_ddot)
+        u = intelligent_step(self._p, self._s, y, y_ref, y_ref_dot, y_ref_ddot)
+        if not math.isfinite(u):  # the law overflowed (a finite u0 is always held)
+            self.reset()
+            raise nonfinite_command(
+                type(self).__name__, "u", u,
+                {"y": y, "y_ref": y_ref, "y_ref_dot": y_ref_dot, "y_ref_ddot": y_ref_ddot},
+                "the controller was reset (its window held the overflowed values)")
+        return u
 
     @property
     def status(self) -> IntelligentStatus:
@@ -1102,11 +1127,20 @@ class IntelligentController(CompiledController):
         return f"{type(self).__name__}({self._params!r})"
 
 
+def _fixed_zero(cls: str, options: dict, gains: tuple[tuple[str, str, str], ...]) -> None:
+    """Refuse a gain that a shorthand fixes at 0 (given in ``options``) unless it is 0."""
+    for name, unit, instead in gains:
+        if name in options and finite(name, options[name], unit) != 0.0:
+            raise ValueError(f"{name} = {options[name]!r} {unit}: must be 0 for an {cls} "
+                             f"(use {instead})")
+
+
 class IP(IntelligentController):
     """Intelligent proportional controller, nu = 1: ``u = -(F_hat - y_ref' + Kp e) / alpha``.
 
-    Keyword arguments as :class:`IntelligentParams` (``nu = 1``, ``ki = kd = 0`` fixed); the
-    same holds for :class:`IPI`, :class:`IPD` and :class:`IPID` with their own gains.
+    Keyword arguments as :class:`IntelligentParams` (``nu = 1``, ``ki = kd = 0`` fixed: a
+    nonzero ``ki`` or ``kd`` raises ``ValueError``); the same holds for :class:`IPI`
+    (``kd = 0``), :class:`IPD` (``ki = 0``) and :class:`IPID` with their own gains.
 
     References
     ----------
@@ -1118,13 +1152,15 @@ class IP(IntelligentController):
     def __init__(
         self, *, alpha: float, kp: float, dt: float, window: int, **options
     ) -> None:
+        _fixed_zero("IP", options, (("ki", "1/s^2", "IPI for an integral term"),
+                                    ("kd", "1/s", "IPD for a derivative term")))
         super().__init__(
             IntelligentParams(nu=1, alpha=alpha, kp=kp, dt=dt, window=window, **options)
         )
 
 
 class IPI(IntelligentController):
-    """Intelligent PI, nu = 1: ``u = -(F_hat - y_ref' + Kp e + Ki int e) / alpha``.
+    """Intelligent PI, nu = 1: ``u = -(F_hat - y_ref' + Kp e + Ki int e) / alpha`` (``kd = 0``).
 
     References
     ----------
@@ -1142,7 +1178,7 @@ class IPI(IntelligentController):
 
 
 class IPD(IntelligentController):
-    """Intelligent PD, nu = 2: ``u = -(F_hat - y_ref'' + Kp e + Kd e') / alpha``.
+    """Intelligent PD, nu = 2: ``u = -(F_hat - y_ref'' + Kp e + Kd e') / alpha`` (``ki = 0``).
 
     References
     ----------
@@ -1154,6 +1190,7 @@ class IPD(IntelligentController):
     def __init__(
         self, *, alpha: float, kp: float, kd: float, dt: float, window: int, **options
     ) -> None:
+        _fixed_zero("IPD", options, (("ki", "1/s^3", "IPID for an integral term"),))
         super().__init__(
             IntelligentParams(nu=2, alpha=alpha, kp=kp, kd=kd, dt=dt, window=window, **options)
         )

@@ -87,6 +87,7 @@ from numba import njit
 
 from flatfree._validate import finite, positive, whole
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
+from flatfree.controllers._shell import nonfinite_command, real_arg
 from flatfree.controllers.flatness_control import (
     FlatnessControlParams,
     flatness_step,
@@ -166,6 +167,12 @@ class CREF(enum.IntEnum):
     R_KIN = 10  # yaw-rate feedforward of the path correction: minus the reference sideslip
     #             rate, -beta_ref' [rad/s] (kinematic consistency, module docstring)
 
+
+# plain-int copies of the slots NaturalOutputController.step writes (an IntEnum member costs
+# an attribute lookup and a conversion per use in Python; the names stay)
+_M_VX, _M_R, _M_EY, _M_EYDD = int(MEAS.VX), int(MEAS.R), int(MEAS.E_Y), int(MEAS.EY_DDOT)
+_C_VX, _C_AX, _C_KAPPA = int(CREF.VX), int(CREF.AX), int(CREF.KAPPA)
+_C_EY, _C_EYD, _C_EYDD = int(CREF.EY), int(CREF.EY_DOT), int(CREF.EY_DDOT)
 
 #: How the reference is scheduled: ``"path"`` samples it at the time the reference reaches the
 #: car's *measured* arc length (path following), ``"time"`` at the clock time (trajectory
@@ -1060,23 +1067,74 @@ class NaturalOutputController:
             Measured second derivative of the lateral deviation [m/s^2], from an inertial
             unit (:func:`flatfree.tracks.lateral_deviation_acceleration`); used with
             ``estimator_lat = "imu"`` (NaN, the default: the algebraic estimate).
+
+        Raises
+        ------
+        ValueError
+            An argument that is not one real number (text, ``None``, an array), naming it.
+            And, instead of returning NaN, a step whose torque or steer comes out non-finite
+            (the arithmetic overflowed: finite values of the order of 1e300 among the inputs
+            or still in the estimators' windows). The controller is then reset
+            (:meth:`reset`) at its last finite commands: its windows hold the overflowed
+            values, which would make every later output NaN. Non-finite measurements are not
+            an error (held, above): the outputs stay finite.
         """
+        # the common path (floats) costs one type test per argument (_shell docstring)
+        vx = vx if isinstance(vx, float) else real_arg("vx", vx, "m/s")
+        r = r if isinstance(r, float) else real_arg("r", r, "rad/s")
+        e_y = e_y if isinstance(e_y, float) else real_arg("e_y", e_y, "m")
+        kappa = kappa if isinstance(kappa, float) else real_arg("kappa", kappa, "1/m")
+        vx_ref = vx_ref if isinstance(vx_ref, float) else real_arg("vx_ref", vx_ref, "m/s")
+        ax_ref = ax_ref if isinstance(ax_ref, float) else real_arg("ax_ref", ax_ref, "m/s^2")
+        if not isinstance(e_y_ref, float):
+            e_y_ref = real_arg("e_y_ref", e_y_ref, "m")
+        if not isinstance(e_y_ref_dot, float):
+            e_y_ref_dot = real_arg("e_y_ref_dot", e_y_ref_dot, "m/s")
+        if not isinstance(e_y_ref_ddot, float):
+            e_y_ref_ddot = real_arg("e_y_ref_ddot", e_y_ref_ddot, "m/s^2")
+        if not isinstance(e_y_ddot, float):
+            e_y_ddot = real_arg("e_y_ddot", e_y_ddot, "m/s^2")
+        if applied_torque is not None and not isinstance(applied_torque, float):
+            applied_torque = real_arg("applied_torque", applied_torque, "N m")
+        if applied_steer is not None and not isinstance(applied_steer, float):
+            applied_steer = real_arg("applied_steer", applied_steer, "rad")
+        prev = self._prev
         vx_then = vx if math.isnan(self._vx_prev) else self._vx_prev
-        model_tw, model_delta = actuate_step(self._prev[0], self._prev[1], vx_then,
-                                             self._act_p, self._act_s)
-        if applied_steer is None:
-            applied_steer = model_delta
-        if applied_torque is None:
-            applied_torque = model_tw
+        model_tw, model_delta = actuate_step(prev[0], prev[1], vx_then, self._act_p,
+                                             self._act_s)
+        a_tw = model_tw if applied_torque is None else applied_torque
+        a_delta = model_delta if applied_steer is None else applied_steer
         m = self._meas
-        m[MEAS.VX], m[MEAS.R], m[MEAS.E_Y], m[MEAS.EY_DDOT] = vx, r, e_y, e_y_ddot
+        m[_M_VX] = vx
+        m[_M_R] = r
+        m[_M_EY] = e_y
+        m[_M_EYDD] = e_y_ddot
         c = self._ref
-        c[CREF.VX], c[CREF.AX], c[CREF.KAPPA] = vx_ref, ax_ref, kappa
-        c[CREF.EY], c[CREF.EY_DOT], c[CREF.EY_DDOT] = e_y_ref, e_y_ref_dot, e_y_ref_ddot
+        c[_C_VX] = vx_ref
+        c[_C_AX] = ax_ref
+        c[_C_KAPPA] = kappa
+        c[_C_EY] = e_y_ref
+        c[_C_EYD] = e_y_ref_dot
+        c[_C_EYDD] = e_y_ref_ddot
         z = self._arrays
         tw, delta = vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon,
-                                 z.f_lat, z.f_yaw, m, c, float(applied_torque),
-                                 float(applied_steer))
-        self._prev[:] = (tw, delta)
+                                 z.f_lat, z.f_yaw, m, c, a_tw, a_delta)
+        if not (math.isfinite(tw) and math.isfinite(delta)):  # overflowed (Raises)
+            self._overflowed(tw, delta, dict(
+                vx=vx, r=r, e_y=e_y, kappa=kappa, vx_ref=vx_ref, ax_ref=ax_ref, e_y_ref=e_y_ref,
+                e_y_ref_dot=e_y_ref_dot, e_y_ref_ddot=e_y_ref_ddot,
+                applied_torque=applied_torque, applied_steer=applied_steer, e_y_ddot=e_y_ddot))
+        prev[0] = tw
+        prev[1] = delta
         self._vx_prev = vx
-        return float(tw), float(delta)
+        return tw, delta
+
+    def _overflowed(self, tw: float, delta: float, inputs: dict) -> None:
+        """Reset at the last finite commands and raise (:meth:`step`, Raises)."""
+        torque0, steer0 = float(self._prev[0]), float(self._prev[1])
+        self.reset(steer0=steer0, torque0=torque0)
+        which = "steer" if math.isfinite(tw) else "torque"
+        raise nonfinite_command(
+            type(self).__name__, which, tw if which == "torque" else delta, inputs,
+            f"the controller was reset (reset(steer0={steer0!r}, torque0={torque0!r}), the "
+            "last finite commands: its windows held the overflowed values)")

@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numba import njit
 
-from flatfree._validate import as_real, finite, nonnegative, real_array
+from flatfree._validate import finite, nonnegative, real, real_array
 from flatfree.estimators._auto import design_for, signal_std_estimate
 from flatfree.estimators._fir import (
     _HELD,
@@ -32,15 +32,6 @@ __all__ = [
 
 #: Longest window for ``startup="shrink"``: its table holds n (n - 1) / 2 floats (16 MB at 2048).
 SHRINK_MAX_TAPS = 2048
-
-
-def _sample_value(name: str, k: int, value) -> float:
-    """A streamed sample that is not a Python float: its value, or ``ValueError`` naming the
-    sample and its index (text and booleans are not numbers; the common path skips this)."""
-    v = as_real(value)
-    if v is None:
-        raise ValueError(f"{name}[{k}] = {value!r}: expected a real number")
-    return v
 
 
 def check_timestamps(t, dt: float | None = None, *, rtol: float = 1e-6) -> float:
@@ -156,7 +147,7 @@ class Stream:
         """Push one sample; return the estimate at this sample."""
         k = self._k
         self._k = k + 1
-        x = sample if type(sample) is float else _sample_value("sample", k, sample)
+        x = sample if type(sample) is float else real(f"sample[{k}]", sample)
         if not math.isfinite(x) and (self._raise or not math.isfinite(self.state[_HELD])):
             raise ValueError(nonfinite_message("sample", k, x, self._raise))
         return fir_update(self.state, x)
@@ -360,8 +351,8 @@ class FEstimator:
         return ``F_hat[k]``."""
         k = self._k
         self._k = k + 1
-        yv = y if type(y) is float else _sample_value("y", k, y)
-        uv = u_prev if type(u_prev) is float else _sample_value("u_prev", k, u_prev)
+        yv = y if type(y) is float else real(f"y[{k}]", y)
+        uv = u_prev if type(u_prev) is float else real(f"u_prev[{k}]", u_prev)
         if not (math.isfinite(yv) and math.isfinite(uv)):
             for name, v, ks in (("y", yv, self.state_y), ("u_prev", uv, self.state_u)):
                 if not math.isfinite(v) and (self._raise or not math.isfinite(ks[_HELD])):

@@ -34,7 +34,7 @@ import numba
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
-from flatfree._validate import real_array
+from flatfree._validate import real, real_array
 from flatfree.tracks._io import MIN_SEGMENT_M, validate_polyline
 
 __all__ = [
@@ -348,7 +348,19 @@ def frenet_project(g, closed, x, y, psi, seg):
 
 
 @numba.njit(cache=True)
-def lateral_deviation_acceleration(ax, ay, vx, vy, e_y, e_psi, kappa):
+def lateral_deviation_acceleration_kernel(ax, ay, vx, vy, e_y, e_psi, kappa):
+    """:func:`lateral_deviation_acceleration` compiled, for compiled loops: no argument checks,
+    and NaN (not an error) at the path's centre of curvature, ``kappa e_y = 1``."""
+    c = math.cos(e_psi)
+    sn = math.sin(e_psi)
+    vt = vx * c - vy * sn
+    den = 1.0 - kappa * e_y
+    if den == 0.0:
+        return math.nan
+    return ay * c + ax * sn - kappa * vt * vt / den
+
+
+def lateral_deviation_acceleration(ax, ay, vx, vy, e_y, e_psi, kappa) -> float:
     """Second time derivative of the lateral deviation from the path [m/s^2] (kinematics).
 
     With the path's unit tangent t and left normal n at the foot point, e_y' = v . n and
@@ -361,12 +373,25 @@ def lateral_deviation_acceleration(ax, ay, vx, vy, e_y, e_psi, kappa):
     lateral deviation e_y [m] (left positive), the heading error e_psi [rad] and the path
     curvature kappa at the foot point [1/m]. No vehicle parameter; exact for a point moving
     in the plane (checked against the second difference of a simulated e_y in
-    tests/test_imu_estimator.py). Not finite where an input is not.
+    tests/test_imu_estimator.py). Not finite where an input is not (a lost measurement stays
+    lost).
+
+    Raises
+    ------
+    ValueError
+        An argument that is not a real number (text, None, an array), or a point at the path's
+        centre of curvature (``kappa e_y = 1``: no foot point moves with it).
     """
-    c = math.cos(e_psi)
-    sn = math.sin(e_psi)
-    vt = vx * c - vy * sn
-    return ay * c + ax * sn - kappa * vt * vt / (1.0 - kappa * e_y)
+    args = (ax, ay, vx, vy, e_y, e_psi, kappa)
+    if not all(type(a) is float for a in args):
+        names = ("ax", "ay", "vx", "vy", "e_y", "e_psi", "kappa")
+        units = ("m/s^2", "m/s^2", "m/s", "m/s", "m", "rad", "1/m")
+        ax, ay, vx, vy, e_y, e_psi, kappa = (
+            real(name, a, unit) for name, unit, a in zip(names, units, args, strict=True))
+    if 1.0 - kappa * e_y == 0.0:
+        raise ValueError(f"e_y = {e_y!r} m, kappa = {kappa!r} 1/m: the point is at the path's "
+                         "centre of curvature (kappa e_y = 1), where e_y'' is not defined")
+    return lateral_deviation_acceleration_kernel(ax, ay, vx, vy, e_y, e_psi, kappa)
 
 
 @numba.njit(cache=True)

@@ -25,17 +25,20 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import math
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numba
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from flatfree._validate import positive
+from flatfree._validate import as_real, positive, whole
 from flatfree.tracks.geometry import Track, path_eval_many, progress, project_points
+from flatfree.tracks.loaders import load_track
 from flatfree.tracks.speed import (
     SpeedLimits,
     SpeedProfile,
@@ -245,9 +248,40 @@ def _line_to_path_map(path: Track, line: Track) -> CubicSpline:
     return CubicSpline(s_ext, sp_ext)
 
 
+_LIMIT_FIELDS = tuple(f.name for f in dataclasses.fields(SpeedLimits))
+
+
+def _as_track(track) -> Track:
+    """``track`` itself, or the track :func:`~flatfree.tracks.load_track` loads from a name or
+    a path; ``ValueError`` naming it for anything else."""
+    if isinstance(track, Track):
+        return track
+    if isinstance(track, (str, os.PathLike)):
+        return load_track(track)
+    raise ValueError(f"track = {track!r}: expected a Track, a bundled track's name or the path "
+                     "of a track file (flatfree.tracks.load_track)")
+
+
+def _as_speed(speed):
+    """``speed`` as make_reference takes it: SpeedLimits (also from a mapping of its fields),
+    a SpeedProfile, None, or a constant speed [m/s] as a float."""
+    if speed is None or isinstance(speed, (SpeedLimits, SpeedProfile)):
+        return speed
+    if isinstance(speed, Mapping):
+        unknown = [k for k in speed if k not in _LIMIT_FIELDS]
+        if unknown:
+            raise ValueError(f"speed = {dict(speed)!r}: unknown limit {unknown[0]!r}; "
+                             f"SpeedLimits has {', '.join(_LIMIT_FIELDS)}")
+        return SpeedLimits(**speed)  # each value validated there (ValueError naming it)
+    if as_real(speed) is None:
+        raise ValueError(f"speed = {speed!r}: expected SpeedLimits (or a mapping of its "
+                         "fields), a SpeedProfile, a constant speed in m/s, or None")
+    return positive("speed", speed, "m/s")
+
+
 def make_reference(
-    track: Track,
-    speed: SpeedLimits | SpeedProfile | float | None = None,
+    track: Track | str | os.PathLike,
+    speed: SpeedLimits | Mapping | SpeedProfile | float | None = None,
     *,
     dt: float = 0.01,
     lateral_offset: float | np.ndarray | Callable = 0.0,
@@ -261,11 +295,15 @@ def make_reference(
 
     Parameters
     ----------
-    track : Track
-        The path; the vehicle's lateral deviation is measured from it.
-    speed : SpeedLimits, SpeedProfile, float or None
-        Limits for :func:`~flatfree.tracks.speed.speed_profile` (default ``SpeedLimits()``), a
-        ready profile (of ``track``, without lateral offset), or a constant speed [m/s].
+    track : Track, str or path
+        The path; the vehicle's lateral deviation is measured from it. A bundled track's name
+        (``"Monza"``) or a track file's path is loaded with
+        :func:`~flatfree.tracks.load_track` (its defaults: the centerline).
+    speed : SpeedLimits, mapping, SpeedProfile, float or None
+        Limits for :func:`~flatfree.tracks.speed.speed_profile` (default ``SpeedLimits()``;
+        a mapping of SpeedLimits' fields, ``{"a_lat_max": 3.0}``, is ``SpeedLimits(**it)``),
+        a ready profile (of ``track``, without lateral offset), or a constant speed [m/s].
+        Anything else raises ``ValueError``.
     dt : float
         Time step [s].
     lateral_offset : float, array_like (N+1,) or callable
@@ -295,8 +333,12 @@ def make_reference(
     s_p_dot = (ds_p/ds) Vx and s_p_ddot = (d^2 s_p/ds^2) Vx^2 + (ds_p/ds) a_x.
     """
     positive("dt", dt, "s")
-    if int(laps) != laps or laps < 1:
-        raise ValueError(f"laps = {laps!r}: must be an integer >= 1")
+    laps = whole("laps", laps, 1)
+    track = _as_track(track)
+    speed = _as_speed(speed)
+    if vehicle is not None and not isinstance(vehicle, VehicleParams):
+        raise ValueError(f"vehicle = {vehicle!r}: expected VehicleParams "
+                         "(flatfree.load_vehicle(name)) or None")
     if laps > 1 and not track.closed:
         raise ValueError(f"laps = {laps}: only a closed track can be driven more than once")
     off = _offset_function(lateral_offset, track)
@@ -313,7 +355,7 @@ def make_reference(
     elif speed is None or isinstance(speed, SpeedLimits):
         prof = speed_profile(line, speed, v_start=v_start, v_end=v_end, vehicle=vehicle)
     else:
-        prof = constant_speed_profile(line, float(speed))
+        prof = constant_speed_profile(line, speed)
     total = prof.duration * laps
     n = int(math.floor(total / dt + 1e-9)) + 1
     if n < 2:
