@@ -320,6 +320,17 @@ def test_run_out_is_checked_before_the_run(runner, tmp_path, monkeypatch):
     with pytest.raises(AssertionError, match="before --out"):
         _invoke(runner, ["run", *SHORT, "--out", str(tmp_path / "new" / "deeper" / "run1")])
     assert not (tmp_path / "new").exists()
+    # demo too
+    import flatfree.cli
+
+    def fails(*a, **k):
+        raise AssertionError("a demo run failed")
+
+    monkeypatch.setattr(flatfree.cli, "_try_run", fails)
+    with pytest.raises(AssertionError, match="a demo run failed"):
+        _invoke(runner, ["demo", "--duration", "2", "--no-recorded", "--out",
+                         str(tmp_path / "new" / "demo")])
+    assert not (tmp_path / "new").exists()
 
 
 def test_run_exit_code_1_when_the_run_does_not_complete(runner, tmp_path):
@@ -404,6 +415,9 @@ def test_vehicle_option_takes_the_cars_natural_settings():
     assert imu.controller_settings == natural_settings("dallara_av21", imu=True)
     assert imu.controller_settings["estimator_lat"] == "imu"
     assert imu.controller_settings["alpha_lat"] == 60.0
+    # the car in any spelling the loader takes is that car, with its tuning and its name
+    sc = build_scenario(track="LVMS", vehicle="Dallara_AV21")
+    assert sc.vehicle == "dallara_av21" and sc.controller_settings == DALLARA_NATURAL_SETTINGS
 
 
 # ------------------------------------------------------------------------------------------
@@ -514,10 +528,25 @@ def test_noise_on_a_noise_free_scenario_is_refused(runner):
     res = _invoke(runner, ["run", "paper-noise-free", "--noise", *SHORT, "--json"])
     assert res.exit_code == 2 and res.stdout == ""
     assert "'paper-noise-free'" in res.stderr and "run 'paper'" in res.stderr
-    with pytest.raises(InputError, match="its name says noise-free"):
+    # the scenario's own check (flatfree.scenario), --noise applied as the setting noise=true
+    assert res.stderr == ("Error: setting noise=true: field noise: noise = True: the "
+                          "scenario's name 'paper-noise-free' says noise-free; run 'paper' for "
+                          "the noisy variant, or rename it (name = ...)\n")
+    with pytest.raises(InputError, match=r"^setting noise=true: field noise: noise = True: the "
+                                         r"scenario's name 'recorded-imu-noise-free' says "
+                                         r"noise-free; run 'recorded-imu' for the noisy variant, "
+                                         r"or rename it \(name = \.\.\.\)$"):
         build_scenario("recorded-imu-noise-free", settings=["noise=true"])
     sc = build_scenario("paper-noise-free", noise=True, settings=["name=mine"])
     assert sc.noise and sc.name == "mine"
+    # demo --set too, before any run
+    from flatfree.cli import _demo_tasks
+
+    with pytest.raises(InputError, match=r"^paper, flatness: setting noise=true: field noise: "
+                                         r"noise = True: the scenario's name "
+                                         r"'paper-flatness-noise-free' says noise-free"):
+        _demo_tasks(track=None, seed=0, duration_s=2.0, rec_duration_s=2.0, no_recorded=True,
+                    noise=False, settings=["noise=true"])
 
 
 def test_bundled_references_come_out_in_their_own_spelling(tmp_path, monkeypatch):
@@ -562,6 +591,49 @@ def test_run_prints_the_steer_lock_warning_as_one_line(runner):
     assert "warning: the reference's tightest curve (radius 9.9 m)" in res.stderr
     assert "UserWarning" not in res.stderr
     json.loads(res.stdout)  # stdout stays machine-readable
+
+
+def test_run_out_prints_the_steer_lock_warning_once(runner, tmp_path):
+    """--out draws the desired path from the run's reference, built again without its
+    warnings (it printed the warning a second time, raw with its source line; pytest records
+    a raw warning instead of printing it, so it is caught here)."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = _invoke(runner, ["run", "--vehicle", "dallara_av21", "--track", "Monza",
+                               "--duration", "3", "--out", str(tmp_path / "o"), "--json"])
+    assert res.exit_code in (0, 1), res.output
+    assert res.stderr.count("the reference's tightest curve") == 1, res.stderr
+    assert res.stderr.startswith("warning: the reference's tightest curve (radius")
+    assert [str(w.message) for w in caught] == []
+
+
+def test_run_builds_the_reference_once_after_the_run(runner, tmp_path, monkeypatch):
+    """The note on a run shorter than --duration, the recorded steer and --out's figures share
+    one reference: simulate's prepare() and one more (there were four)."""
+    import flatfree.simulation
+
+    calls = []
+    real = flatfree.simulation.prepare
+
+    def counted(*args, **kwargs):
+        calls.append(args)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(flatfree.simulation, "prepare", counted)
+    # 20 s of the bundled recording, at speed (a short user recording)
+    lines = (resources.files("flatfree") / "data" / "recordings" /
+             "LVMS_23_01_04_B.csv").read_text().splitlines()
+    rec = tmp_path / "short.csv"
+    rec.write_text("\n".join([lines[0], *lines[3000:3500]]) + "\n")
+    res = _invoke(runner, ["run", "--recording", str(rec), "--no-noise", "--duration", "60",
+                           "--out", str(tmp_path / "o"), "--json"])
+    assert res.exit_code == 0, res.output
+    assert "note: the run ended at" in res.stderr  # the three users of the reference ran
+    assert json.loads(res.stdout)["steer_rms_vs_recorded_deg"] is not None
+    assert (tmp_path / "o" / "figures" / "fig4_paths.png").is_file()
+    assert len(calls) == 2
 
 
 # ------------------------------------------------------------------------------------------
@@ -657,6 +729,10 @@ def test_demo_set_changes_every_run_and_refuses_what_differs_between_them(runner
     # spelled with spaces, as the library reads it (reference.track for every run)
     with pytest.raises(InputError, match="reference.track cannot be set"):
         _demo_tasks(**kw, settings=["reference . track = Monza"])
+    # a malformed setting: the library's message, once (not once per run)
+    with pytest.raises(InputError, match=r"^setting seed: expected FIELD=VALUE, e.g. "
+                                         r"reference.j_lat_max=15$"):
+        _demo_tasks(**kw, settings=["seed"])
     # a bad value: exit 2 before any run, naming the run and the setting
     res = _invoke(runner, ["demo", "--out", str(tmp_path / "o"), "--set", "road.mu=-1"])
     assert res.exit_code == 2

@@ -487,15 +487,16 @@ def test_an_overflowing_law_raises_naming_the_inputs_and_resets(cls):
 
 
 @pytest.mark.parametrize(("cls", "gains", "message"), [
-    (IP, dict(ki=3.0), r"ki = 3\.0 1/s\^2: must be 0 for an IP \(use IPI"),
-    (IP, dict(kd=1.0), r"kd = 1\.0 1/s: must be 0 for an IP \(use IPD"),
-    (IP, dict(ki="3"), r"ki = '3' 1/s\^2: expected a real number"),
-    (IPD, dict(kd=1.0, ki=2.0), r"ki = 2\.0 1/s\^3: must be 0 for an IPD \(use IPID"),
-    (IPI, dict(ki=1.0, kd=1.0), r"kd = 1\.0 1/s: must be 0 for nu = 1"),
+    (IP, dict(ki=3.0), "ki = 3.0 1/s^2: must be 0 for an IP (use IPI for an integral term)"),
+    (IP, dict(kd=1.0), "kd = 1.0 1/s: must be 0 for nu = 1 (iP, iPI)"),  # IntelligentParams'
+    (IP, dict(ki="3"), "ki = '3' 1/s^2: expected a real number"),
+    (IPD, dict(kd=1.0, ki=2.0),
+     "ki = 2.0 1/s^3: must be 0 for an IPD (use IPID for an integral term)"),
+    (IPI, dict(ki=1.0, kd=1.0), "kd = 1.0 1/s: must be 0 for nu = 1 (iP, iPI)"),
 ])
 def test_a_shorthand_refuses_the_gains_it_fixes_at_zero(cls, gains, message):
     """IP(ki=3) used to give an iPI silently (its docstring says ki = kd = 0 fixed)."""
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
         cls(alpha=1.0, kp=1.0, dt=0.01, window=5, **gains)
 
 

@@ -194,11 +194,12 @@ def test_y2_per_r_is_the_linear_3dof_steady_state():
 
 def test_steer_authority_on_y2_vanishes_with_the_steady_ratio():
     """d y2'' / d delta of the linear 3DoF model (sympy) is C_f C_r L G / (m Iz Vx), G the
-    steady ratio of :func:`y2_per_r`; its positive root is :func:`flat_output_singular_speed`
+    steady ratio of :func:`y2_per_r`; its positive root is :func:`flatness.singular_speed`
     (real only for a yaw index Iz / (m lf lr) < 1). Checked symbolically, then on the presets."""
     import sympy as sp
 
-    from flatfree.controllers.vehicle import flat_output_singular_speed, y2_per_r
+    from flatfree.controllers.flatness import singular_speed
+    from flatfree.controllers.vehicle import y2_per_r
     from flatfree.models.bicycle3dof import Bicycle3DoFParams
     from flatfree.vehicles import load_vehicle
 
@@ -220,13 +221,13 @@ def test_steer_authority_on_y2_vanishes_with_the_steady_ratio():
     for name, expected in (("dallara_av21", 10.8), ("peugeot406", 0.58)):
         b = Bicycle3DoFParams.from_vehicle(load_vehicle(name))
         vals = {m: b.m, iz: b.iz, lf: b.lf, lr: b.lr, cr: b.cr}
-        v_star = flat_output_singular_speed(b)
+        v_star = singular_speed(b)
         assert v_star == pytest.approx(float(root.subs(vals)), rel=1e-12)
         assert round(v_star, 1 if expected > 1 else 2) == expected  # the docstrings' figures
         assert abs(float(y2_per_r(b, v_star))) < 1e-9 * b.iz
     b = Bicycle3DoFParams.from_vehicle(load_vehicle("peugeot406"))
     heavy = dataclasses.replace(b, iz=1.2 * b.m * b.lf * b.lr)  # yaw index 1.2: no root
-    assert math.isnan(flat_output_singular_speed(heavy))
+    assert singular_speed(heavy) is None
 
 
 def test_prepare_warns_when_a_flat_output_reference_passes_the_singular_speed():
@@ -275,8 +276,8 @@ def test_whole_number_settings_refuse_non_integers_naming_the_field(value):
         if value == 2:
             assert getattr(MfcNaturalSettings(**{name: value}), name) == 2
             continue
-        with pytest.raises(ValueError, match=rf"^{name} = {re.escape(repr(value))}: must be 0 "
-                                             r"\(off\) or an integer >= 2 samples$"):
+        with pytest.raises(ValueError, match=rf"^{name} = {re.escape(repr(value))} samples "
+                                             r"\(0: off\): must be an integer >= 2$"):
             MfcNaturalSettings(**{name: value})
 
 
@@ -333,5 +334,46 @@ def test_named_scenario_takes_another_car_with_its_tuning():
     with pytest.raises(ValueError, match=r"^vehicle = 'peugeot406': the recorded scenario's car "
                                          r"is the recording's, dallara_av21$"):
         named_scenario("recorded", vehicle="peugeot406")
-    with pytest.raises(ValueError, match=r"^vehicle = 3: expected a bundled preset's name"):
+    # the scenario checks the car (a path as os.PathLike too)
+    with pytest.raises(ValueError, match=r"^vehicle = 3: expected a preset name or a file "
+                                         r"path$"):
         named_scenario("paper", vehicle=3)
+    assert named_scenario("paper", vehicle=Path("my_car.toml")).vehicle == Path("my_car.toml")
+
+
+def test_named_scenario_holds_bundled_names_in_their_own_spelling():
+    """The car and the track in any spelling the loaders take: that car's tuning (the dallara
+    in another spelling got the peugeot406's), and the names as `flatfree run` gives them."""
+    from flatfree.scenarios import DALLARA_NATURAL_SETTINGS, natural_settings
+
+    sc = named_scenario("paper", vehicle="Dallara_AV21", track="monza")
+    assert (sc.vehicle, sc.reference.track) == ("dallara_av21", "Monza")
+    assert dict(sc.controller_settings) == DALLARA_NATURAL_SETTINGS
+    assert sc.description == "paper Section 4: mfc-natural on the 10DoF dallara_av21"
+    assert natural_settings("DALLARA_AV21", imu=True) == natural_settings("dallara_av21",
+                                                                          imu=True)
+
+
+def test_whole_number_settings_are_stored_as_integers():
+    """A TOML 100.0 is a whole sample count (``_validate.whole``): stored as the int, so the
+    controller built from the settings takes it (it refused 100.0 naming its own 'window')."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import (
+        MfcFlatSettings,
+        MfcNaturalSettings,
+        NaturalOutputController,
+    )
+    from flatfree.vehicles import load_vehicle
+
+    s = MfcNaturalSettings(window_lon=100.0, window_lat=60.0, denoise_lat=20.0, denoise_lon=0.0)
+    for name, n in (("window_lon", 100), ("window_lat", 60), ("denoise_lat", 20),
+                    ("denoise_lon", 0)):
+        assert type(getattr(s, name)) is int and getattr(s, name) == n
+    assert type(MfcFlatSettings(window_lat=40.0).window_lat) is int
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    ref = NaturalOutputController(dt=0.001, actuators=act, settings=MfcNaturalSettings(
+        window_lon=100, window_lat=60))
+    got = NaturalOutputController(dt=0.001, actuators=act, settings=s.__class__(
+        window_lon=100.0, window_lat=60.0))
+    args = dict(vx=20.0, r=0.05, e_y=0.01, kappa=0.0025, vx_ref=20.0)
+    assert got.step(**args) == ref.step(**args)

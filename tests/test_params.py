@@ -43,6 +43,30 @@ def test_names_are_case_insensitive():
 def test_unknown_name_lists_valid_ones():
     with pytest.raises(ValueError, match="valid names: bmw320i, dallara_av21, peugeot406"):
         load_vehicle("trabant")
+    with pytest.raises(ValueError, match=r"^unknown tire set 'michelin'; valid names: "
+                                         r"commonroad, pacejka2006_205_60R15$"):
+        load_tire("michelin")
+
+
+def test_bundled_name_is_the_loaders_lookup(tmp_path, monkeypatch):
+    """One name lookup (case-insensitive) that the loaders use and the scenario spells its car
+    with; a file of that name (or a .toml path) is read first."""
+    from flatfree.vehicles.params import bundled_name
+
+    assert bundled_name("Dallara_AV21") == "dallara_av21"
+    assert bundled_name("PACEJKA2006_205_60r15", "tire") == "pacejka2006_205_60R15"
+    assert bundled_name("peugeot406", "tire") is None
+    for other in ("trabant", "peugeot406.toml", " peugeot406", 406, None):
+        assert bundled_name(other) is None, other
+    with pytest.raises(ValueError, match=r"^kind = 'car': must be one of vehicle, tire$"):
+        bundled_name("peugeot406", "car")
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "PEUGEOT406").write_text("not = [toml")
+    with pytest.raises(ValueError, match="malformed TOML"):
+        load_vehicle("PEUGEOT406")
+    # a folder is no vehicle file: the bundled preset
+    (tmp_path / "bmw320i").mkdir()
+    assert load_vehicle("bmw320i") == load_vehicle("BMW320I")
 
 
 def test_bmw320i_is_commonroad_set_2():

@@ -39,12 +39,12 @@ def _rich() -> Scenario:
                                                  markov_tau_s=2.0),
                              "x": SensorChannel(markov_std=0.01, markov_tau_s=60.0,
                                                 markov_order=2),
-                             "e_y": SensorChannel(noise_std=0.01, rate_hz=100.0,
+                             "psi": SensorChannel(noise_std=0.01, rate_hz=100.0,
                                                   delay_s=0.01)}),
         noise=False,
         road=RoadSpec(mu=1.0, patches=(FrictionPatch(s_start_m=100.0, s_end_m=200.0, mu=0.5),),
                       bank_deg=((0.0, 0.0), (80.0, -9.2), (400.0, -9.2))),
-        faults=(Fault(kind="nan_measurement", channel="e_y", t_start_s=5.0, duration_s=0.05),
+        faults=(Fault(kind="nan_measurement", channel="psi", t_start_s=5.0, duration_s=0.05),
                 Fault(kind="steer_limit", t_start_s=8.0, duration_s=1.0, value=0.01)),
         seed=42,
     )
@@ -67,7 +67,7 @@ def test_defaults_and_recording_reference():
 
 def test_noise_switch_keeps_rates_and_delays():
     sc = _rich()
-    eff = sc.effective_sensors.channels["e_y"]
+    eff = sc.effective_sensors.channels["psi"]
     assert eff.noise_std == 0.0 and eff.rate_hz == 100.0 and eff.delay_s == 0.01
     assert dataclasses.replace(sc, noise=True).effective_sensors is sc.sensors
 
@@ -96,6 +96,19 @@ def test_noise_switch_keeps_rates_and_delays():
         ('[[road.patch]]\ns_start_m = 10.0\ns_end_m = 20.0\n',
          ["line 1", "field road.patch", "missing key mu"]),
         ('seed = -3\n', ["line 1", "field seed", "-3"]),
+        ('seed = 2.5\n', ["line 1", "field seed", "seed = 2.5: must be an integer >= 0"]),
+        # a channel the loop does not measure (a table or a fault the run would never use)
+        ('[sensors.x]\nnoise_std = 0.1\n[sensors.e_y]\nnoise_std = 0.1\n',
+         ["line 3", ("field sensors.e_y: 'e_y' is not a measured channel; channels: x, y, "
+                     "psi, vx, vy, r, ax, ay")]),
+        (('[[fault]]\nkind = "nan_measurement"\nchannel = "e_y"\nt_start_s = 1.0\n'
+          'duration_s = 0.1\n'),
+         ["line 3", ("field fault.channel: fault.channel = 'e_y': not a measured channel; "
+                     "channels: x, y, psi, vx, vy, r, ax, ay")]),
+        ('name = "paper-noise-free"\nnoise = true\n',
+         ["line 2", ("field noise: noise = True: the scenario's name 'paper-noise-free' says "
+                     "noise-free; run 'paper' for the noisy variant, or rename it "
+                     "(name = ...)")]),
         ('[reference]\ndrive_limit = "yes"\n', ["line 2", "reference.drive_limit", "'yes'"]),
         ('wheels = 4\n', ["line 1", "field wheels", "unknown key"]),
         # text and booleans are not numbers (float() would take "6" and true)
@@ -125,6 +138,16 @@ def test_malformed_files_name_the_line_and_the_field(text, words):
         ({"name": 3}, r"^name = 3: expected a text$"),
         ({"description": None}, r"^description = None: expected a text$"),
         ({"vehicle": 406}, r"^vehicle = 406: expected a preset name or a file path$"),
+        ({"seed": 3.5}, r"^seed = 3.5: must be an integer >= 0$"),
+        ({"seed": "3"}, r"^seed = '3': must be an integer >= 0$"),
+        ({"seed": math.nan}, r"^seed = nan: must be an integer >= 0$"),
+        ({"sensors": SensorSuite({"e_y": SensorChannel()})},
+         (r"^sensors.e_y: 'e_y' is not a measured channel; channels: x, y, psi, vx, vy, r, "
+          r"ax, ay$")),
+        # its name says noise-free (noise is on by default)
+        ({"name": "recorded-imu-noise-free"},
+         (r"^noise = True: the scenario's name 'recorded-imu-noise-free' says noise-free; "
+          r"run 'recorded-imu' for the noisy variant, or rename it \(name = \.\.\.\)$")),
     ],
 )
 def test_invalid_scenarios(kwargs, match):
@@ -163,9 +186,75 @@ def test_reference_needs_exactly_one_source():
         ReferenceSpec(track="Monza", recording="LVMS")
 
 
+def test_seed_is_a_whole_number_as_the_other_counts():
+    """seed as reference.laps (_validate.whole): a whole float (a TOML 3.0) is the integer."""
+    import numpy as np
+
+    for seed in (3, 3.0, np.int64(3)):
+        sc = Scenario(seed=seed)
+        assert sc.seed == 3 and type(sc.seed) is int
+    assert scenario_from_toml("seed = 3.0\n") == Scenario(seed=3)
+    big = 2**53 + 1  # not a float: kept exactly
+    assert Scenario(seed=big).seed == big
+    assert scenario_from_toml(Scenario(seed=2**63 - 1).to_toml()).seed == 2**63 - 1
+
+
+def test_noise_free_names_refuse_the_noise_on_every_path():
+    from flatfree.scenarios import named_scenario
+
+    msg = (r"noise = True: the scenario's name 'paper-noise-free' says noise-free; run 'paper' "
+           r"for the noisy variant, or rename it \(name = \.\.\.\)$")
+    sc = named_scenario("paper-noise-free")
+    with pytest.raises(ValueError, match=rf"^{msg}"):
+        sc.with_(noise=True)
+    with pytest.raises(ValueError, match=rf"^setting noise=true: field noise: {msg}"):
+        sc.with_settings(["noise=true"])
+    # renamed in the same step, or without the noise, it is a scenario like any other
+    assert sc.with_(noise=True, name="mine").noise
+    assert sc.with_settings(["noise=true", "name=mine"]).name == "mine"
+    assert Scenario(name="x-noise-free", noise=False).name == "x-noise-free"
+
+
+def test_bundled_names_are_held_in_their_own_spelling(tmp_path, monkeypatch):
+    """As the loaders match them (case-insensitive, a track's .csv optional): one spelling, so
+    that what compares names (natural_settings, the CLI's output) sees the car it runs."""
+    monkeypatch.chdir(tmp_path)
+    sc = Scenario(vehicle="Dallara_AV21", reference=ReferenceSpec(track=" monza.CSV"))
+    assert (sc.vehicle, sc.reference.track) == ("dallara_av21", "Monza")
+    assert sc.with_(vehicle="BMW320I").vehicle == "bmw320i"
+    assert ReferenceSpec(track=None, recording="lvms_23_01_04_b").recording == "LVMS_23_01_04_B"
+    assert ReferenceSpec(track="lvms_23_01_04_b").track == "LVMS_23_01_04_B"  # its driven path
+    assert scenario_from_toml('vehicle = "PEUGEOT406"\n').vehicle == "peugeot406"
+    assert scenario_with_settings(Scenario(), ["reference.track=spa"]).reference.track == "Spa"
+    # not a bundled name: as given (the loader's error names it), a Path as a Path
+    assert ReferenceSpec(track="Monza2").track == "Monza2"
+    assert Scenario(vehicle="PEUGEOT406.toml").vehicle == "PEUGEOT406.toml"
+    assert Scenario(vehicle=Path("my car.toml")).vehicle == Path("my car.toml")
+    # a file of that name in the current directory is what a loader reads: kept
+    (tmp_path / "monza").write_text("")
+    (tmp_path / "Dallara_AV21").write_text("")
+    sc = Scenario(vehicle="Dallara_AV21", reference=ReferenceSpec(track="monza"))
+    assert (sc.vehicle, sc.reference.track) == ("Dallara_AV21", "monza")
+
+
+def test_setting_path_is_the_path_scenario_with_settings_reads():
+    from flatfree.scenario import setting_path
+
+    assert setting_path(" reference . track = Monza") == "reference.track"
+    assert setting_path("sensors.y.markov_order=2") == "sensors.y.markov_order"
+    with pytest.raises(ValueError, match=r"^setting seed: expected FIELD=VALUE"):
+        setting_path("seed")
+    with pytest.raises(ValueError, match=r"^setting reference\.\.mu=1: the path "
+                                         r"'reference\.\.mu' has an empty part"):
+        setting_path("reference..mu=1")
+
+
 def test_fault_needs_its_fields():
     with pytest.raises(ValueError, match="needs the channel"):
         Fault(kind="nan_measurement", t_start_s=0.0, duration_s=1.0)
+    with pytest.raises(ValueError, match=r"^fault.channel = 'e_y': not a measured channel; "
+                                         r"channels: x, y, psi, vx, vy, r, ax, ay$"):
+        Fault(kind="nan_measurement", channel="e_y", t_start_s=0.0, duration_s=1.0)
     with pytest.raises(ValueError, match="needs the limit"):
         Fault(kind="steer_limit", t_start_s=0.0, duration_s=1.0)
 
@@ -204,11 +293,11 @@ def test_relative_paths_in_a_file_are_relative_to_its_folder(tmp_path, monkeypat
     sc = load_scenario(rw / "scenario.toml")
     assert sc.vehicle == str(tmp_path / "elsewhere" / "none.toml")
     assert sc.reference.recording == str(rw / "tracks" / "circle.csv")
-    # bundled names are names, in any spelling the loaders take
+    # bundled names are names, in any spelling the loaders take, held in their own
     (rw / "scenario.toml").write_text('vehicle = "PEUGEOT406"\n[reference]\n'
                                       'track = "monza.csv"\n')
     sc = load_scenario(rw / "scenario.toml")
-    assert (sc.vehicle, sc.reference.track) == ("PEUGEOT406", "monza.csv")
+    assert (sc.vehicle, sc.reference.track) == ("peugeot406", "Monza")
     (rw / "scenario.toml").write_text(f'vehicle = "{rw / "sub" / "mycar.toml"}"\n'
                                       '[reference]\nrecording = "LVMS_23_01_04_B"\n')
     sc = load_scenario(rw / "scenario.toml")  # an absolute path is kept
@@ -218,6 +307,10 @@ def test_relative_paths_in_a_file_are_relative_to_its_folder(tmp_path, monkeypat
     (rw / "Monza").write_text("# a file named like a bundled track\n")
     (rw / "scenario.toml").write_text('[reference]\ntrack = "Monza"\n')
     assert load_scenario(rw / "scenario.toml").reference.track == str(rw / "Monza")
+    # in another spelling too: the folder's file, not the bundled track in its own spelling
+    (rw / "monza").write_text("# a file named like a bundled track\n")
+    (rw / "scenario.toml").write_text('[reference]\ntrack = "monza"\n')
+    assert load_scenario(rw / "scenario.toml").reference.track == str(rw / "monza")
     # text without a folder keeps the values as written
     assert scenario_from_toml('vehicle = "sub/mycar.toml"\n').vehicle == "sub/mycar.toml"
 
@@ -298,7 +391,7 @@ def _flat(sc: Scenario) -> dict:
         ("actuators.steer_tau_s=0.05", "actuators.steer_tau_s", 0.05),
         ("timing.duration_s=5", "timing.duration_s", 5.0),
         ("sensors.y.markov_order=2", "sensors.y.markov_order", 2),
-        ("sensors.e_y.noise_std=0.03", "sensors.e_y.noise_std", 0.03),
+        ("sensors.psi.noise_std=0.03", "sensors.psi.noise_std", 0.03),
         ("sensors.ay.rate_hz=100", "sensors.ay.rate_hz", 100.0),
         ("controller_settings.alpha_lat=40", "controller_settings.alpha_lat", 40),
         ("controller_settings.window_lat=30", "controller_settings.window_lat", 30),

@@ -72,22 +72,40 @@ def test_metrics_of_a_short_gentle_run():
 
 
 def test_the_real_time_factor_leaves_out_the_compiler(tmp_path):
-    """A cold numba cache (a fresh clone) compiles the loop for ~10 s on its first run: that
+    """A cold numba cache (a fresh clone) compiles the loop for seconds on its first run: that
     happens before the clock starts, and the timed run compiles nothing (a fresh interpreter
-    with an empty cache directory, so the compilation really happens there)."""
+    with an empty cache directory, so the compilation really happens there): the first call
+    adds exactly the one signature it compiles before timing, the second none."""
     code = ("import json\n"
+            "from flatfree import simulation\n"
             "from flatfree.scenarios import named_scenario\n"
-            "from flatfree.simulation import simulate\n"
-            "m = [dict(simulate(named_scenario('paper-noise-free', duration_s=0.2)).meta)"
-            " for _ in range(2)]\n"
-            "print(json.dumps(m))\n")
+            "out = []\n"
+            "for _ in range(2):\n"
+            "    n0 = len(simulation._closed_loop.signatures)\n"
+            "    m = simulation.simulate(named_scenario('paper-noise-free', duration_s=0.2)).meta\n"
+            "    out.append([len(simulation._closed_loop.signatures) - n0, m['compile_time_s'],"
+            " m['real_time_factor']])\n"
+            "print(json.dumps(out))\n")
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=env, check=True)
     first, second = json.loads(out.stdout.strip().splitlines()[-1])
-    assert first["compiled_new_loop"] and not first["compiled_while_timed"]
-    assert not second["compiled_new_loop"] and not second["compiled_while_timed"]
-    assert first["compile_time_s"] > 0.0 and first["real_time_factor"] > 0.0
+    assert first[0] == 1 and second[0] == 0
+    assert first[1] > 0.0 and first[2] > 0.0
+
+
+def test_a_run_too_long_for_the_memory_is_a_value_error():
+    """The clock schedule keeps any duration: one that cannot be allocated is refused by name
+    (numpy's MemoryError before)."""
+    from flatfree.scenarios import named_scenario
+
+    sc = named_scenario("paper-noise-free")
+    sc = sc.with_(controller_settings={**sc.controller_settings, "schedule": "time"},
+                  timing=Timing(duration_s=1e9))
+    with pytest.raises(ValueError, match=r"^timing\.duration_s = 1e\+09 s: the run's sensor "
+                                         r"noise and log, allocated for the whole duration, do "
+                                         r"not fit in memory \(.+\)$"):
+        simulate(sc)
 
 
 @pytest.mark.parametrize("channel", ["x", "vx"])

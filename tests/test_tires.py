@@ -528,13 +528,15 @@ def test_other_bad_inputs_raise():
 
 
 @pytest.mark.parametrize(("call", "msg"), [
-    (lambda tire: fx0("1.0", 3000.0, tire), "kappa = '1.0' -: expected real numbers"),
+    (lambda tire: fx0("1.0", 3000.0, tire), "kappa = '1.0': expected real numbers, got dtype <U3"),
     (lambda tire: fy0([True, False], 3000.0, tire),
-     "alpha = [True, False] rad: expected real numbers"),
+     "alpha = [True, False] rad: expected real numbers, got dtype bool"),
     (lambda tire: combined(0.1, 0.1, [3000.0, None], tire),
-     "fz = [3000.0, None] N: expected real numbers"),
-    (lambda tire: slips(1.0, "1.0", 0.0, 1.0), "vxw = '1.0' m/s: expected real numbers"),
-    (lambda tire: slips(1.0, 1.0, 0.0, True), "v_min = True m/s: expected real numbers"),
+     "fz = [3000.0, None] N: expected real numbers, got dtype object"),
+    (lambda tire: slips(1.0, "1.0", 0.0, 1.0),
+     "vxw = '1.0' m/s: expected real numbers, got dtype <U3"),
+    (lambda tire: slips(1.0, 1.0, 0.0, True),
+     "v_min = True m/s: expected real numbers, got dtype bool"),
     (lambda tire: fx0(0.1, 3000.0, tire, "1.0"),
      "mu_scale = '1.0': expected real numbers, got dtype <U3"),
     (lambda tire: cornering_stiffness(tire, 3000.0, mu_scale=True),

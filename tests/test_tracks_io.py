@@ -138,6 +138,31 @@ def test_a_written_track_reads_back_as_its_nodes(tmp_path):
     assert not T.load_track(tmp_path / "arc.csv").closed
 
 
+def test_bundled_name_is_the_loaders_lookup(tmp_path, monkeypatch):
+    """One name lookup (case-insensitive, blanks and .csv ignored; a track may be a recording's
+    name) that the loaders use and the scenario spells its names with."""
+    from flatfree.tracks._io import bundled_name
+
+    assert bundled_name("monza") == "Monza" and bundled_name(" SPA.csv ") == "Spa"
+    assert bundled_name("lvms") == "LVMS"
+    assert bundled_name("lvms_23_01_04_b") == "LVMS_23_01_04_B"  # a recording as a track
+    assert bundled_name("lvms_23_01_04_b", "recording") == "LVMS_23_01_04_B"
+    assert bundled_name("Monza", "recording") is None
+    assert bundled_name("monza", "raceline") == "Monza"
+    assert bundled_name("lvms", "raceline") is None  # no race line of the oval
+    for other in ("Nurburgring", "data/monza.csv", "", 3, None):
+        assert bundled_name(other) is None, other
+    with pytest.raises(ValueError, match=r"^kind = 'circuit': must be one of track, raceline, "
+                                         r"recording$"):
+        bundled_name("Monza", "circuit")
+    # a file of that name is read first; else the name, in any spelling, is the bundled file
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "monza").write_text("# x_m,y_m\n")
+    with pytest.raises(ValueError, match="monza: no data rows"):
+        T.load_track("monza")
+    assert T.load_track("MONZA").name == "Monza"
+
+
 def test_unknown_name_lists_the_valid_ones():
     with pytest.raises(ValueError, match=r"unknown track 'Nurburgring'.*Monza"):
         T.load_track("Nurburgring")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -40,3 +41,24 @@ def test_as_real_takes_numbers_only():
     assert as_real(3) == 3.0 and as_real(np.float32(0.5)) == 0.5 and as_real(np.array(2.0)) == 2.0
     for value in ("1", b"1", True, np.bool_(False), np.zeros(1), None, [1.0]):
         assert as_real(value) is None
+
+
+def test_real_array_names_the_unit_when_given():
+    with pytest.raises(ValueError, match=r"^fz = \['1'\] N: expected real numbers, got dtype <U1$"):
+        real_array("fz", ["1"], "N")
+    with pytest.raises(ValueError, match=r"^fz \[N\]: expected an array of real numbers of one "):
+        real_array("fz", [[1.0], [1.0, 2.0]], "N")
+    assert as_real(1 + 2j) is None and as_real(np.complex128(1.0)) is None  # not real numbers
+    assert as_real(7) == 7.0 and type(as_real(7)) is float
+
+
+def test_whole_keeps_large_integers_exact_and_refuses_what_float_cannot_hold():
+    from flatfree._validate import whole
+
+    big = 2**60 + 1  # float(big) == 2**60: a float path would round it
+    assert whole("seed", big, 0) == big and whole("n", np.int64(7), 2) == 7
+    assert whole("n", 100.0, 2) == 100 and type(whole("n", 100.0, 2)) is int
+    for bad in (True, np.True_, 1, -(2**70), 2.5, "3", math.inf, math.nan):
+        with pytest.raises(ValueError, match=r"must be an integer >= 2$"):
+            whole("n", bad, 2)
+    assert as_real(10**400) is None  # beyond float's range: not refused by an OverflowError

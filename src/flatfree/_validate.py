@@ -22,17 +22,19 @@ def _fmt(name: str, value, unit: str) -> str:
 
 def as_real(value) -> float | None:
     """``float(value)``, or None when it is not one real number: text (a TOML file's ``"6"``),
-    booleans (``true`` is not 1) and arrays (``float()`` takes a one-element one) are not."""
-    if isinstance(value, (str, bytes, bool, np.bool_)) or (
-            isinstance(value, np.ndarray) and value.ndim != 0):
+    booleans (``true`` is not 1), complex numbers and arrays (``float()`` takes a one-element
+    one) are not."""
+    if type(value) is not int and (  # an int, the common case after float, goes straight on
+            isinstance(value, (str, bytes, bool, np.bool_, complex, np.complexfloating)) or (
+            isinstance(value, np.ndarray) and value.ndim != 0)):
         return None
     try:
         return float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # an int beyond float's range too
         return None
 
 
-def real_array(name: str, value) -> np.ndarray:
+def real_array(name: str, value, unit: str = "") -> np.ndarray:
     """``np.asarray(value, float64)`` for arrays of real numbers; raise ``ValueError`` naming
     ``name`` for anything else: text (``"1.0"``), booleans, complex numbers and object arrays
     (a ``None`` among numbers, which ``float64`` would turn into a silent NaN) are not real
@@ -42,10 +44,13 @@ def real_array(name: str, value) -> np.ndarray:
     try:
         a = value if isinstance(value, np.ndarray) else np.asarray(value)
     except ValueError:  # a ragged list: numpy's message does not say which argument
-        raise ValueError(f"{name}: expected an array of real numbers of one shape, got "
+        u = f" [{unit}]" if unit and unit != "-" else ""
+        raise ValueError(f"{name}{u}: expected an array of real numbers of one shape, got "
                          f"{value!r:.80}") from None
+    if a.dtype is _F64:
+        return a  # a list of floats: converted once
     if a.dtype.kind not in "iuf":
-        shown = f"{name} = {value!r}" if a.size <= 4 else f"{name} (shape {a.shape})"
+        shown = _fmt(name, value, unit) if a.size <= 4 else f"{name} (shape {a.shape})"
         raise ValueError(f"{shown}: expected real numbers, got dtype {a.dtype}")
     return np.asarray(a, dtype=np.float64)
 
@@ -106,6 +111,10 @@ def in_range(name: str, value, lo: float, hi: float, unit: str = "") -> float:
 def whole(name: str, value, lo: int, unit: str = "") -> int:
     """An integer >= ``lo`` (an integral float such as a TOML ``100.0`` too); text, booleans,
     NaN, infinity and fractions raise."""
+    if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)):
+        if value < lo:  # an integer as it is, however large (a float would round it)
+            raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")
+        return int(value)
     v = as_real(value)
     if v is None or not math.isfinite(v) or v != int(v) or v < lo:
         raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")

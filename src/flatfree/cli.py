@@ -93,14 +93,12 @@ def _named(name: str, **kw):
 def _scenario_names_help() -> str:
     """A help paragraph naming every named scenario, from flatfree.scenarios.SCENARIO_NAMES
     (so it cannot miss one); wrapped here, as click would break the names at their hyphens."""
-    names = _scenarios_module().SCENARIO_NAMES
-    sfx = "-noise-free"
-    bases = [n for n in names if not n.endswith(sfx)]
-    listed = (f"{', '.join(bases)}; each also as NAME{sfx}"
-              if sorted(names) == sorted([*bases, *(b + sfx for b in bases)])
-              else ", ".join(names))
+    from flatfree.scenario import NOISE_FREE_SUFFIX as sfx
+
+    bases = [n for n in _scenarios_module().SCENARIO_NAMES if not n.endswith(sfx)]
     return "\b\n" + textwrap.fill(f"Named scenarios (`flatfree scenario list` describes them): "
-                                  f"{listed}.", width=96, break_on_hyphens=False)
+                                  f"{', '.join(bases)}; each also as NAME{sfx}.", width=96,
+                                  break_on_hyphens=False)
 
 
 def _round_times(payload: dict[str, Any]) -> dict[str, Any]:
@@ -110,39 +108,29 @@ def _round_times(payload: dict[str, Any]) -> dict[str, Any]:
             for k, v in payload.items()}
 
 
-def _make_out_dir(out_dir: Path) -> list[Path]:
-    """Create the output folder ``out_dir`` and check a file can be written in it, before a
-    run spends its time: :class:`InputError` (exit 2) naming the folder if not. Returns the
-    folders created (deepest first)."""
-    created = [q for q in (out_dir, *out_dir.parents) if not q.exists()]
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=out_dir):
-            pass
-    except OSError as exc:
-        _remove_empty(created)
-        raise _fail(f"--out {out_dir}: cannot create or write this folder "
-                    f"({exc.strerror or exc})") from None
-    return created
-
-
 @contextlib.contextmanager
 def _out_dir(out_dir: Path | None):
-    """:func:`_make_out_dir` (``None``: no folder), and the folders it created removed again
-    if the command fails before writing into them."""
-    created = [] if out_dir is None else _make_out_dir(out_dir)
+    """Create the output folder ``out_dir`` (None: none) and check that a file can be written
+    in it, before the command spends its time: :class:`InputError` (exit 2) naming the folder
+    if not. The folders it created are removed again if the command fails before writing into
+    them."""
+    created = [] if out_dir is None else [q for q in (out_dir, *out_dir.parents)
+                                          if not q.exists()]
     try:
+        if out_dir is not None:
+            try:
+                out_dir.mkdir(parents=True, exist_ok=True)
+                with tempfile.TemporaryFile(dir=out_dir):
+                    pass
+            except OSError as exc:
+                raise _fail(f"--out {out_dir}: cannot create or write this folder "
+                            f"({exc.strerror or exc})") from None
         yield
     except BaseException:
-        _remove_empty(created)
+        for q in created:  # deepest first; a folder written into is not empty: kept
+            with contextlib.suppress(OSError):
+                q.rmdir()
         raise
-
-
-def _remove_empty(folders: list[Path]) -> None:
-    """Remove each folder of ``folders`` (deepest first) that is empty."""
-    for q in folders:
-        with contextlib.suppress(OSError):
-            q.rmdir()
 
 
 # ------------------------------------------------------------------------------------------
@@ -337,7 +325,8 @@ a_brake_max = 6.0           # [m/s^2]
 v_max = 50.0                # [m/s]
 mu = 1.0                    # friction the speed profile plans with [-]
 j_lat_max = inf             # lateral jerk v^3 |dkappa/ds| [m/s^3]; inf: no limit; 15.0 keeps
-                            # a rough path drivable (costs <= 0.12 % of a bundled track's lap)
+                            # a rough path drivable (costs a bundled track's lap 0.31 s at
+                            # most: Spa, 0.13 %)
 drive_limit = false         # true: also within the car's drive limit (power, torque, drag)
 
 [timing]
@@ -470,17 +459,16 @@ def _vehicle_option(ctx, param, value: str | None) -> str | None:
     if value is None:
         return None
     from flatfree.vehicles import vehicle_names
+    from flatfree.vehicles.params import bundled_name
 
     if Path(value).is_file():
         return value
-    names = vehicle_names()
-    if value in names:
-        return value
-    by_lower = {n.lower(): n for n in names}
-    if value.lower() in by_lower:
-        return by_lower[value.lower()]
-    raise click.BadParameter(f"unknown vehicle {value!r}; presets: {', '.join(names)}; "
-                             "or the path of a vehicle TOML file")
+    name = bundled_name(value)
+    if name is None:
+        raise click.BadParameter(f"unknown vehicle {value!r}; presets: "
+                                 f"{', '.join(vehicle_names())}; or the path of a vehicle TOML "
+                                 "file")
+    return name
 
 
 def _controller_choices() -> list[str]:
@@ -527,11 +515,12 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     controller settings (only the flatness controller takes them: another one refuses them
     when the run starts). ``settings`` (``--set FIELD=VALUE``, repeatable) are applied last,
     in order, by :func:`flatfree.scenario.scenario_with_settings`: a ``--set`` wins over the
-    options (``--seed 1 --set seed=2`` runs seed 2). A bundled track or recording comes out
-    in its own spelling (``--track monza``: ``Monza``). Raises :class:`InputError` (exit 2) on
-    bad input, and on a scenario named ``...-noise-free`` with the noise switched on (its
-    results would carry a name that says the opposite: run the noisy scenario instead, or
-    rename it with ``--set name=...``).
+    options (``--seed 1 --set seed=2`` runs seed 2). ``noise`` is applied as the setting
+    ``noise=true`` / ``noise=false`` before them, so that a scenario named ``...-noise-free``
+    (which the scenario refuses with the noise on) can take ``--noise --set name=NAME``. A
+    bundled car, track or recording comes out in its own spelling (``--track monza``:
+    ``Monza``; :class:`~flatfree.scenario.Scenario`). Raises :class:`InputError` (exit 2) on
+    bad input.
     """
     from flatfree.scenario import Scenario, scenario_with_settings
 
@@ -564,43 +553,22 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
                         # the base's settings are its car's tuning: take the new car's
                         # (alpha_lat), with the same estimator
                         changes["controller_settings"] = natural(vehicle, imu=imu)
-        if noise is not None:
-            changes["noise"] = noise
         if seed is not None:
             changes["seed"] = seed
         if duration_s is not None:
             changes["timing"] = dataclasses.replace(sc.timing, duration_s=duration_s)
-        sc = scenario_with_settings(sc.with_(**changes), list(settings))
-        ref = sc.reference
-        sc = sc.with_(reference=dataclasses.replace(
-            ref, track=_bundled_spelling(ref.track, "track"),
-            recording=_bundled_spelling(ref.recording, "recording")))
+        noise_setting = [] if noise is None else [f"noise={'true' if noise else 'false'}"]
+        sc = scenario_with_settings(sc.with_(**changes), [*noise_setting, *settings])
     except ValueError as exc:
         raise _fail(str(exc)) from None
-    if sc.noise and sc.name.endswith("-noise-free"):
-        raise _fail(f"scenario {sc.name!r} with the sensor noise on (--noise or noise=true): "
-                    f"its name says noise-free; run {sc.name.removesuffix('-noise-free')!r} "
-                    "for the noisy variant, or rename it (--set name=NAME)")
     return sc
-
-
-def _bundled_spelling(name: str | None, kind: str) -> str | None:
-    """A bundled track (``kind="track"``, a recording's name included) or recording name in
-    its own spelling (``monza`` -> ``Monza``, as the loaders match it); a file's path, and
-    anything else, as given."""
-    if name is None or Path(name).is_file():
-        return name
-    from flatfree.tracks import recording_names, track_names
-
-    names = (track_names() if kind == "track" else []) + recording_names()
-    by_lower = {n.lower(): n for n in names}
-    return by_lower.get(str(name).strip().lower().removesuffix(".csv"), name)
 
 
 def _simulate_collecting(sc, warned: list[str]):
     """simulate(sc), the library's warnings (e.g. a curve beyond the car's steer lock) appended
-    to ``warned`` as text instead of shown; a ValueError passes through, and a run too long for
-    the memory becomes one."""
+    to ``warned`` as text instead of shown; a ValueError passes through, the one of a run too
+    long for the memory (simulate's, naming timing.duration_s) saying where the run ends at the
+    latest and how to make it longer (:func:`_reference_end`)."""
     import warnings
 
     from flatfree.simulation import simulate
@@ -609,31 +577,34 @@ def _simulate_collecting(sc, warned: list[str]):
         warnings.simplefilter("always")
         try:
             return simulate(sc)
-        except MemoryError as exc:
-            # simulate() allocates the sensor noise and the log for the whole duration
-            d = sc.timing.duration_s
-            raise ValueError(
-                f"{'the run' if d is None else f'timing.duration_s = {d:g} s'}: the run's "
-                "sensor noise and log, allocated for the whole duration, do not fit in memory "
-                f"({exc}); {_reference_end(sc)}") from None
+        except ValueError as exc:
+            if "do not fit in memory" not in str(exc):
+                raise
+            raise ValueError(f"{exc}; {_reference_end(sc)}") from None
         finally:
             warned.extend(str(w.message) for w in caught)
 
 
-def _reference_end(sc) -> str:
-    """Where a run ends at the latest: the end of its reference path, how long the reference
-    lasts, and the setting that makes it longer (reference.laps on a closed track)."""
+def _quiet_reference(sc):
+    """The reference of ``sc`` (``prepare(sc).reference``), its warnings silenced: the run
+    warns (or the run's error says) what they would repeat."""
     import warnings
 
     from flatfree.simulation import prepare
 
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return prepare(sc).reference
+
+
+def _reference_end(sc, ref=None) -> str:
+    """Where a run ends at the latest: the end of its reference path, how long the reference
+    ``ref`` (None: built here, if it can be) lasts, and the setting that makes it longer
+    (reference.laps on a closed track)."""
     spec = sc.reference
-    try:
-        with warnings.catch_warnings():  # the run warned already
-            warnings.simplefilter("ignore")
-            ref = prepare(sc).reference
-    except (ValueError, MemoryError):
-        ref = None
+    if ref is None:
+        with contextlib.suppress(ValueError, MemoryError):  # then said without its length
+            ref = _quiet_reference(sc)
     lasts = "" if ref is None else f", {ref.duration:.1f} s"
     if spec.recording is not None:
         return (f"a run ends where its reference ends (the recording {spec.recording}{lasts}), "
@@ -662,17 +633,17 @@ def _time_axis(tr) -> np.ndarray:
     return np.asarray(tr["t_ref"]) if "t_ref" in tr else tr.time
 
 
-def recorded_steer_of(runs: Sequence, sc) -> list[np.ndarray]:
+def recorded_steer_of(runs: Sequence, sc, reference=None) -> list[np.ndarray]:
     """The recording's steer [rad] at the samples of each trajectory in ``runs``.
 
     Read on each run's reference clock (``t_ref`` when logged) through
     :func:`flatfree.scenarios.recorded_steer`, called once for all runs (it builds the
-    recording's reference).
+    recording's reference, unless given as ``reference``).
     """
     clocks = [_time_axis(tr) for tr in runs]
     if not clocks:
         return []
-    rec = _scenarios_module().recorded_steer(np.concatenate(clocks), sc)
+    rec = _scenarios_module().recorded_steer(np.concatenate(clocks), sc, reference=reference)
     return np.split(rec, np.cumsum([c.size for c in clocks])[:-1])
 
 
@@ -709,11 +680,8 @@ def _run_json(sc, tr, metrics, extra: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _reference_xy(sc):
-    """The desired path (x, y) of a scenario, for the figures."""
-    from flatfree.simulation import prepare
-
-    ref = prepare(sc).reference
+def _xy(ref) -> tuple[np.ndarray, np.ndarray]:
+    """The desired path (x, y) of a reference, for the figures."""
     return np.asarray(ref["x"]), np.asarray(ref["y"])
 
 
@@ -758,7 +726,7 @@ usage or input.""")
 @click.option("--cr-scale", type=float, callback=_positive_float, metavar="X",
               help="Flatness controller: its model's rear cornering stiffness x nominal.")
 @click.option("--noise/--no-noise", default=None, help="Sensor noise on or off "
-              "(default: the scenario's).")
+              "(default: the scenario's); as --set noise=true/false before the other --set.")
 @click.option("--seed", type=click.IntRange(min=0), help="Seed of the sensor noise.")
 @click.option("--duration", "duration_s", type=float, callback=_positive_float, metavar="S",
               help="Stop after S seconds (default: one lap, or the whole recording).")
@@ -792,19 +760,22 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         _err(f"note: --noise has no effect: scenario {sc.name!r} gives no sensor a noise_std")
     with _out_dir(out_dir):
         tr = _simulate(sc)
-        _note_short_or_capped(sc, tr)
+        # the run's reference for the notes, the recorded steer and the figures: built once
+        # (simulate() does not return it), quietly (the run printed its warnings), when needed
+        reference = functools.cache(functools.partial(_quiet_reference, sc))
+        _note_short_or_capped(sc, tr, reference)
         m = compute_metrics(tr, startup_s=sc.timing.startup_s)
         extra: dict[str, float] = {}
         rec = None
         if sc.reference.recording is not None:
-            (rec,) = recorded_steer_of([tr], sc)
+            (rec,) = recorded_steer_of([tr], sc, reference())
             extra["steer_rms_vs_recorded_deg"] = steer_rms_vs_recorded_deg(
                 tr, rec, sc.timing.startup_s)
         result = RunResult(label=sc.controller, scenario=sc, trajectory=tr, metrics=m,
                            extra=extra)
         payload = _run_json(sc, tr, m, extra)
         if out_dir is not None:
-            _write_run(out_dir, result, payload, rec)
+            _write_run(out_dir, result, payload, reference(), rec)
     if as_json:
         click.echo(json.dumps(_round_times(payload)))
     else:
@@ -822,16 +793,16 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         sys.exit(1)
 
 
-def _note_short_or_capped(sc, tr) -> None:
+def _note_short_or_capped(sc, tr, reference: Callable[[], Any]) -> None:
     """Notes on stderr when the run's length explains its results: it ended at the end of the
     reference path before the requested duration, or within the start-up interval that the
-    metrics leave out (every metric then null)."""
+    metrics leave out (every metric then null). ``reference()``: the run's reference."""
     t = tr.time
     requested = sc.timing.duration_s
     if (tr.completed and requested is not None and t.size
             and t[-1] + sc.timing.log_dt_s < requested - 1e-9):
         _err(f"note: the run ended at {t[-1]:.2f} s, not at the requested duration of "
-             f"{requested:g} s (timing.duration_s): {_reference_end(sc)}")
+             f"{requested:g} s (timing.duration_s): {_reference_end(sc, reference())}")
     startup = sc.timing.startup_s
     if not np.any(t >= (t[0] if t.size else 0.0) + startup):
         end = f"its log ends at {t[-1]:.2f} s" if t.size else "it logged nothing"
@@ -840,18 +811,18 @@ def _note_short_or_capped(sc, tr) -> None:
              "(--duration) or shorten it (--set timing.startup_s=S)")
 
 
-def _write_run(out_dir: Path, result, payload: dict[str, Any],
+def _write_run(out_dir: Path, result, payload: dict[str, Any], reference,
                recorded: np.ndarray | None = None) -> None:
-    """Write a run's scenario, trajectory, metrics, figures and report into ``out_dir``."""
+    """Write a run's scenario, trajectory, metrics, figures and report into ``out_dir`` (made
+    by :func:`_out_dir`); ``reference``: the run's reference (the desired path)."""
     from flatfree.report import write_report
 
-    out_dir.mkdir(parents=True, exist_ok=True)
     sc, tr = result.scenario, result.trajectory
     sc.save(out_dir / "scenario.toml")
     tr.to_parquet(out_dir / "trajectory.parquet")
     (out_dir / "metrics.json").write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
     runs = {sc.controller: tr}
-    ref_xy = _reference_xy(sc)
+    ref_xy = _xy(reference)
     figs = []
     # the recorded steer at each logged sample (read at the run's reference time), drawn on
     # the run's clock like the run's own steer: the pairs that steer_rms_vs_recorded_deg uses
@@ -953,10 +924,13 @@ def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
     Raises :class:`InputError` (exit 2) on a bad setting or one of
     :data:`DEMO_FIXED_FIELDS`.
     """
-    from flatfree.scenario import scenario_with_settings
+    from flatfree.scenario import scenario_with_settings, setting_path
 
     for s in settings:
-        path = ".".join(part.strip() for part in s.partition("=")[0].split("."))
+        try:
+            path = setting_path(s)
+        except ValueError as exc:
+            raise _fail(str(exc)) from None
         fixed = next((f for f in DEMO_FIXED_FIELDS if path == f or path.startswith(f + ".")),
                      None)
         if fixed is not None:
@@ -1037,20 +1011,29 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     unit (paper-imu, recorded-imu); prints our errors beside the paper's and writes
     OUT/report.html (self-contained) and OUT/figures/*.png, *.svg.
     """
-    from tqdm import tqdm
-
-    from flatfree import plotting as pl
-    from flatfree.report import format_table, write_report
-
     tasks = _demo_tasks(track=track, seed=seed, duration_s=duration_s,
                         rec_duration_s=rec_duration_s, no_recorded=no_recorded, noise=noise,
                         settings=settings)
     # the desired path (and a check of the track name before the long part)
     try:
-        ref_xy = _reference_xy(tasks[0][2])
+        ref_xy = _xy(_quiet_reference(tasks[0][2]))
     except ValueError as exc:
         raise _fail(str(exc)) from None
-    _make_out_dir(out_dir)  # before the long part too
+    with _out_dir(out_dir):  # before the long part too
+        missing = _demo_runs(out_dir, tasks, ref_xy, settings, progress)
+    if missing:
+        _err("not every paper run could be made: "
+             + "; ".join(f"{r.label}: {r.error}" for r in missing))
+        sys.exit(2)
+
+
+def _demo_runs(out_dir: Path, tasks, ref_xy, settings: Sequence[str], progress) -> list:
+    """The long part of ``demo``: its runs, figures, report and table; returns the paper runs
+    that could not be made."""
+    from tqdm import tqdm
+
+    from flatfree import plotting as pl
+    from flatfree.report import format_table, write_report
 
     show = sys.stderr.isatty() if progress is None else progress
     results: dict[str, list] = {"paper": [], "mismatch": [], "recorded": []}
@@ -1157,10 +1140,7 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
                        f"({r.metrics.status})")
     click.echo(f"wrote {report} and {len(figs)} figures in {figdir} "
                f"({time.perf_counter() - t0:.1f} s)")
-    if missing:
-        _err("not every paper run could be made: "
-             + "; ".join(f"{r.label}: {r.error}" for r in missing))
-        sys.exit(2)
+    return missing
 
 
 # ------------------------------------------------------------------------------------------

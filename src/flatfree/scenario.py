@@ -39,7 +39,7 @@ TOML layout (every key optional except where a section says so; units in the key
     startup_s = 1.0
     # duration_s = 60.0             # default: the reference's duration
 
-    [sensors.vx]                    # one table per measured channel
+    [sensors.vx]                    # one table per measured channel (SENSOR_CHANNELS)
     noise_std = 0.05
     bias = 0.0
     # rate_hz = 100.0
@@ -60,24 +60,30 @@ TOML layout (every key optional except where a section says so; units in the key
     mu = 0.5
 
     [[fault]]
-    kind = "nan_measurement"        # or "steer_limit"
-    channel = "e_y"
+    kind = "nan_measurement"        # or "steer_limit" (with value = the limit [rad])
+    channel = "x"                   # a measured channel (flatfree.sensors.SENSOR_CHANNELS)
     t_start_s = 10.0
     duration_s = 0.05
 
-A malformed file raises ``ValueError`` naming the file, the line and the field.
+A malformed file raises ``ValueError`` naming the file, the line and the field. A scenario
+named ``...-noise-free`` (:mod:`flatfree.scenarios`) with ``noise = true`` is refused: its
+results would carry a name that says the opposite.
 
 File paths (``vehicle``, ``reference.track``, ``reference.recording``): a bundled name
-(``"peugeot406"``, ``"Norisring"``, ``"LVMS_23_01_04_B"``) is a name, not a path, and stays as
-written. A relative path in a file read by :func:`load_scenario` is relative to that file's
-folder, as a loader reads a relative path against the current directory: a value naming an
-existing file there is that file, then a bundled name wins, then any other value that looks like
-a path (a folder separator or a file suffix) is taken in that folder too, so that a missing
-file's error names where it was looked for. The loaded scenario holds absolute paths.
+(``"peugeot406"``, ``"Norisring"``, ``"LVMS_23_01_04_B"``) is a name, not a path, matched as the
+loaders match it (:func:`flatfree.vehicles.params.bundled_name`,
+:func:`flatfree.tracks._io.bundled_name`: case-insensitive, a track's ``.csv`` optional), and a
+scenario holds it in its own spelling (``"monza"``: ``"Monza"``), unless the value names an
+existing file in the current directory, which a loader reads first. A relative path in a file
+read by :func:`load_scenario` is relative to that file's folder, as a loader reads a relative
+path against the current directory: a value naming an existing file there is that file, then a
+bundled name wins, then any other value that looks like a path (a folder separator or a file
+suffix) is taken in that folder too, so that a missing file's error names where it was looked
+for. The loaded scenario holds absolute paths.
 :meth:`Scenario.save` (and ``flatfree run --out``) writes every file path absolute (a relative
 one taken against the current directory, where a run would read it), so the saved file works
 from any directory; :func:`scenario_to_toml` and :func:`scenario_from_toml` (text, no folder)
-keep the values as they are.
+keep the file paths as they are.
 
 Any field can also be changed by a *setting* ``"path=value"`` (:func:`scenario_with_settings`,
 :meth:`Scenario.with_settings`, ``flatfree run --set``): the path is the field's dotted path in
@@ -107,7 +113,7 @@ from flatfree._validate import (
     positive_or_inf,
     whole,
 )
-from flatfree.sensors import SensorChannel, SensorSuite
+from flatfree.sensors import SENSOR_CHANNELS, SensorChannel, SensorSuite
 
 __all__ = [
     "CONTROLLERS",
@@ -123,6 +129,7 @@ __all__ = [
     "scenario_from_toml",
     "scenario_to_toml",
     "scenario_with_settings",
+    "setting_path",
 ]
 
 #: Controller names (the CLI's spelling).
@@ -130,12 +137,40 @@ CONTROLLERS = ("flatness", "mfc-flat", "mfc-natural")
 PLANTS = ("10dof", "3dof")
 LINES = ("centerline", "raceline")
 FAULT_KINDS = ("nan_measurement", "steer_limit")
+#: The name suffix of a scenario without sensor noise (flatfree.scenarios).
+NOISE_FREE_SUFFIX = "-noise-free"
 
 
 def _choice(name: str, value: Any, valid: tuple[str, ...]) -> str:
     if value not in valid:
         raise ValueError(f"{name} = {value!r}: must be one of {', '.join(valid)}")
     return value
+
+
+def _bundled(value: Any, kind: str) -> str | None:
+    """The bundled ``kind`` (``"vehicle"``, ``"track"``, ``"recording"``) that ``value`` names,
+    in its own spelling, by the loaders' own lookup; None if none."""
+    if kind == "vehicle":
+        from flatfree.vehicles.params import bundled_name  # late: keeps the import light
+
+        return bundled_name(value)
+    from flatfree.tracks._io import bundled_name
+
+    return bundled_name(value, kind)
+
+
+def _canonical(value: Any, kind: str) -> Any:
+    """``value`` with a bundled name in its own spelling (``"monza"``: ``"Monza"``); a value
+    naming an existing file (the loaders read it first), and anything else, as given. Looks up
+    names and asks whether the file exists; reads nothing."""
+    if not isinstance(value, (str, os.PathLike)) or os.path.isfile(value):
+        return value
+    name = _bundled(value, kind)
+    return value if name is None else name
+
+
+def _not_a_channel(name: Any) -> str:
+    return f"{name!r} is not a measured channel; channels: {', '.join(SENSOR_CHANNELS)}"
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -167,6 +202,7 @@ class ReferenceSpec:
             v = getattr(self, k)
             if v is not None and not isinstance(v, (str, os.PathLike)):
                 raise ValueError(f"reference.{k} = {v!r}: expected a name or a file path")
+            object.__setattr__(self, k, _canonical(v, k))
         if (self.track is None) == (self.recording is None):
             raise ValueError(
                 f"reference: give exactly one of track ({self.track!r}) and recording "
@@ -315,8 +351,12 @@ class Fault:
         _choice("fault.kind", self.kind, FAULT_KINDS)
         nonnegative("fault.t_start_s", self.t_start_s, "s")
         positive("fault.duration_s", self.duration_s, "s")
-        if self.kind == "nan_measurement" and not self.channel:
-            raise ValueError("fault.channel: a nan_measurement fault needs the channel name")
+        if self.kind == "nan_measurement":
+            if not self.channel:
+                raise ValueError("fault.channel: a nan_measurement fault needs the channel name")
+            if self.channel not in SENSOR_CHANNELS:
+                raise ValueError(f"fault.channel = {self.channel!r}: not a measured channel; "
+                                 f"channels: {', '.join(SENSOR_CHANNELS)}")
         if self.kind == "steer_limit":
             if self.value is None:
                 raise ValueError("fault.value: a steer_limit fault needs the limit [rad]")
@@ -325,7 +365,13 @@ class Fault:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Scenario:
-    """One closed-loop run, fully described (see the module docstring for the TOML layout)."""
+    """One closed-loop run, fully described (see the module docstring for the TOML layout).
+
+    Besides each field's own check: a bundled car, track or recording is held in its own
+    spelling (module docstring, "File paths"); a sensor table and a ``nan_measurement`` fault
+    name a measured channel (:data:`flatfree.sensors.SENSOR_CHANNELS`); a name ending in
+    ``-noise-free`` refuses ``noise = true``. ``ValueError`` naming the field and the value.
+    """
 
     name: str = "custom"
     description: str = ""
@@ -349,12 +395,18 @@ class Scenario:
                 raise ValueError(f"{k} = {getattr(self, k)!r}: expected a text")
         if not isinstance(self.vehicle, (str, os.PathLike)):
             raise ValueError(f"vehicle = {self.vehicle!r}: expected a preset name or a file path")
+        object.__setattr__(self, "vehicle", _canonical(self.vehicle, "vehicle"))
         _choice("plant", self.plant, PLANTS)
         _choice("controller", self.controller, CONTROLLERS)
-        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
-            raise ValueError(f"seed = {self.seed!r}: must be an integer >= 0")
+        # an integral float too (a TOML 3.0), as laps; an integer exactly, however large
+        object.__setattr__(self, "seed", whole("seed", self.seed, 0))
         if not isinstance(self.noise, bool):
             raise ValueError(f"noise = {self.noise!r}: must be true or false")
+        if self.noise and self.name.endswith(NOISE_FREE_SUFFIX):
+            raise ValueError(
+                f"noise = True: the scenario's name {self.name!r} says noise-free; run "
+                f"{self.name.removesuffix(NOISE_FREE_SUFFIX)!r} for the noisy variant, or "
+                "rename it (name = ...)")
         for k, v in self.vehicle_overrides.items():
             if isinstance(v, bool) or not isinstance(v, (int, float, str)):
                 raise ValueError(f"vehicle_overrides.{k} = {v!r}: expected a number")
@@ -363,6 +415,9 @@ class Scenario:
                        ("road", RoadSpec)):
             if not isinstance(getattr(self, f), cls):
                 raise ValueError(f"{f} = {getattr(self, f)!r}: expected a {cls.__name__}")
+        for ch in self.sensors.channels:  # a channel the loop does not measure is a typo
+            if ch not in SENSOR_CHANNELS:
+                raise ValueError(f"sensors.{ch}: {_not_a_channel(ch)}")
         object.__setattr__(self, "vehicle_overrides",
                            MappingProxyType(dict(self.vehicle_overrides)))
         object.__setattr__(self, "controller_settings",
@@ -414,32 +469,22 @@ def _plain(obj) -> dict[str, Any]:
             for f in dataclasses.fields(obj) if (v := getattr(obj, f.name)) is not None}
 
 
-def _bundled_names(kind: str) -> set[str]:
-    """The bundled names a ``vehicle`` / ``track`` / ``recording`` value may be, lower case (the
-    loaders match them case-insensitively; a track may also be a recording's name)."""
-    if kind == "vehicle":
-        from flatfree.vehicles import vehicle_names
-
-        return {n.lower() for n in vehicle_names()}
-    from flatfree.tracks import recording_names, track_names
-
-    return {n.lower() for n in (track_names() if kind == "track" else []) + recording_names()}
-
-
-def _anchored(value: str | os.PathLike | None, folder: Path, kind: str) -> str | None:
-    """``value``, a bundled name or a file path, with a relative path made absolute against
-    ``folder`` (precedence: module docstring)."""
-    if value is None:
-        return None
+def _anchored(value: Any, folder: Path, kind: str) -> Any:
+    """``value``, a bundled name or a file path, as a loader reads it from ``folder``
+    (precedence: module docstring): an existing file there as its absolute path, a bundled name
+    in its own spelling, another value that looks like a path absolute in ``folder``, anything
+    else (and what is no name or path) as given."""
+    if not isinstance(value, (str, os.PathLike)):
+        return value
     text = os.fspath(value)
     if os.path.isabs(text):
         return text
     full = os.path.normpath(os.path.join(os.path.abspath(folder), text))
     if os.path.isfile(full):
         return full
-    key = text.strip().lower()
-    if (key if kind == "vehicle" else key.removesuffix(".csv")) in _bundled_names(kind):
-        return text
+    name = _bundled(text, kind)
+    if name is not None:
+        return name
     if "/" in text or os.sep in text or Path(text).suffix:
         return full
     return text  # neither a file nor a name: the loader's error names it as written
@@ -588,13 +633,22 @@ def scenario_from_toml(text: str, source: str = "<scenario>", *,
     kwargs: dict[str, Any] = {k: doc[k] for k in _TOP_KEYS if k in doc}
     kwargs["vehicle_overrides"] = table("vehicle_overrides")
     kwargs["controller_settings"] = table("controller_settings")
-    kwargs["reference"] = where.build(ReferenceSpec, "reference",
-                                      _reference_values(table("reference")))
+    ref_values = _reference_values(table("reference"))
+    if base_dir is not None:  # the file's folder first (the scenario then checks the names)
+        folder = Path(base_dir)
+        if "vehicle" in kwargs:
+            kwargs["vehicle"] = _anchored(kwargs["vehicle"], folder, "vehicle")
+        for k in ("track", "recording"):
+            if k in ref_values:
+                ref_values[k] = _anchored(ref_values[k], folder, k)
+    kwargs["reference"] = where.build(ReferenceSpec, "reference", ref_values)
     kwargs["timing"] = where.build(Timing, "timing", table("timing"))
     channels = {}
     for ch, values in table("sensors").items():
         if not isinstance(values, dict):
             raise where.error(ValueError("expected a table"), "sensors", ch)
+        if ch not in SENSOR_CHANNELS:
+            raise where.error(ValueError(_not_a_channel(ch)), f"sensors.{ch}", None)
         channels[ch] = where.build(SensorChannel, f"sensors.{ch}", values)
     kwargs["sensors"] = SensorSuite(channels)
     kwargs["actuators"] = where.build(ActuatorSpec, "actuators", table("actuators"))
@@ -620,7 +674,7 @@ def scenario_from_toml(text: str, source: str = "<scenario>", *,
     except (TypeError, ValueError) as exc:
         key = _field_in_message(str(exc), dict.fromkeys(_TOP_KEYS))
         raise where.error(exc, None, key) from None
-    return sc if base_dir is None else _anchor_files(sc, Path(base_dir))
+    return sc
 
 
 def _reference_values(reference: dict) -> dict:
@@ -679,6 +733,14 @@ def _split_path(path: str, label: str) -> tuple[str, ...]:
     return parts
 
 
+def setting_path(setting: str) -> str:
+    """The dotted field path of a setting ``"path=value"`` as :func:`scenario_with_settings`
+    reads it (``" reference . track = Monza"``: ``"reference.track"``); ``ValueError`` for a
+    malformed one, as there."""
+    (st,) = _settings([setting])
+    return ".".join(st.path)
+
+
 def _settings(settings: Sequence[str] | Mapping[str, Any]) -> list[_Setting]:
     if isinstance(settings, Mapping):
         return [_Setting(f"{k}={v!r}", _split_path(str(k), f"{k}={v!r}"), v, None)
@@ -732,12 +794,6 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
             raise ValueError(f"setting {st.label}: {name} is an array of tables ([[{name}]]), "
                              "which a setting cannot address: set it in a TOML file "
                              "(flatfree scenario new)")
-    if path[0] == "sensors" and len(path) > 1 and path[1] not in doc.get("sensors", {}):
-        from flatfree.simulation import SENSOR_CHANNELS  # late: the heavy part
-
-        if path[1] not in SENSOR_CHANNELS:  # a new channel the loop would never read
-            raise ValueError(f"setting {st.label}: sensors.{path[1]}: {path[1]!r} is not a "
-                             f"measured channel; channels: {', '.join(SENSOR_CHANNELS)}")
     node = doc
     for i, key in enumerate(path[:-1]):
         prefix = path[:i + 1]

@@ -80,10 +80,13 @@ References
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
-from flatfree.scenario import ReferenceSpec, Scenario, Timing
+from flatfree.scenario import NOISE_FREE_SUFFIX, ReferenceSpec, Scenario, Timing
 from flatfree.sensors import SensorChannel, SensorSuite
+from flatfree.vehicles.params import bundled_name
 
 __all__ = [
     "DEFAULT_TRACK",
@@ -166,10 +169,12 @@ IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_dampi
 
 def natural_settings(vehicle: str, *, imu: bool = False) -> dict[str, float | int | str]:
     """The natural-output controller's settings tuned for a bundled preset (a copy):
-    :data:`DALLARA_NATURAL_SETTINGS` for ``dallara_av21``, :data:`NATURAL_SETTINGS` (the
+    :data:`DALLARA_NATURAL_SETTINGS` for ``dallara_av21`` (in any spelling the loader takes,
+    :func:`flatfree.vehicles.params.bundled_name`), :data:`NATURAL_SETTINGS` (the
     peugeot406's, measured) for any other car; with ``imu`` overlaid by :data:`IMU_SETTINGS`.
     alpha_lat is the setting tied to the car."""
-    base = DALLARA_NATURAL_SETTINGS if vehicle == "dallara_av21" else NATURAL_SETTINGS
+    dallara = bundled_name(vehicle) == "dallara_av21"
+    base = DALLARA_NATURAL_SETTINGS if dallara else NATURAL_SETTINGS
     return {**base, **(IMU_SETTINGS if imu else {})}
 
 _BASE = {
@@ -184,12 +189,13 @@ _IMU_SUFFIX = "-imu"
 #: Every name :func:`named_scenario` accepts.
 SCENARIO_NAMES: tuple[str, ...] = tuple(
     n for base in (*_BASE, _RECORDED, "paper" + _IMU_SUFFIX, _RECORDED + _IMU_SUFFIX)
-    for n in (base, f"{base}-noise-free")
+    for n in (base, base + NOISE_FREE_SUFFIX)
 )
 
 
 def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
-                   duration_s: float | None = None, vehicle: str | None = None) -> Scenario:
+                   duration_s: float | None = None,
+                   vehicle: str | os.PathLike[str] | None = None) -> Scenario:
     """The named scenario ``name`` (:data:`SCENARIO_NAMES`).
 
     Parameters
@@ -197,17 +203,19 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
     name : str
         A scenario name; ``-noise-free`` suffix for the noise-free variant.
     track : str, optional
-        Another bundled track for the track scenarios (default :data:`DEFAULT_TRACK`); ignored
-        (an error) for ``recorded``.
+        Another bundled track for the track scenarios (default :data:`DEFAULT_TRACK`; held in
+        its own spelling, as the car: ``"monza"`` gives ``"Monza"``); an error for
+        ``recorded``.
     seed : int
         Seed of the sensor noise.
     duration_s : float, optional
         Stop earlier (default: one lap, or the recording).
-    vehicle : str, optional
-        Another car for the track scenarios (a bundled preset's name or a vehicle TOML file;
-        default ``peugeot406``, the paper's car). The natural-output designs then take the
-        settings tuned for it (:func:`natural_settings`: alpha_lat is tied to the car), as
-        ``flatfree run --vehicle`` does. (``scenario.with_(vehicle=...)`` changes the car and
+    vehicle : str or os.PathLike, optional
+        Another car for the track scenarios (a bundled preset's name, in any spelling the
+        loader takes, or a vehicle TOML file's path; default ``peugeot406``, the paper's car).
+        The natural-output designs then take the settings tuned for it
+        (:func:`natural_settings`: alpha_lat is tied to the car), as ``flatfree run
+        --vehicle`` does. (``scenario.with_(vehicle=...)`` changes the car and
         keeps every other setting, the tuning included.) An error for the recorded scenarios,
         whose car is the recording's.
 
@@ -217,8 +225,8 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
     """
     if name not in SCENARIO_NAMES:
         raise ValueError(f"scenario name = {name!r}: valid names: {', '.join(SCENARIO_NAMES)}")
-    noise = not name.endswith("-noise-free")
-    base = name.removesuffix("-noise-free")
+    noise = not name.endswith(NOISE_FREE_SUFFIX)
+    base = name.removesuffix(NOISE_FREE_SUFFIX)
     imu = base.endswith(_IMU_SUFFIX)
     base = base.removesuffix(_IMU_SUFFIX)
     timing = Timing(duration_s=duration_s)
@@ -237,22 +245,20 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
             sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
     controller, settings = _BASE[base]
     car = "peugeot406" if vehicle is None else vehicle
-    if not isinstance(car, str):
-        raise ValueError(f"vehicle = {car!r}: expected a bundled preset's name or a TOML path")
     if controller == "mfc-natural":
         settings = natural_settings(car, imu=imu)
-    what = f"paper Section 4: {controller} on the 10DoF {car}"
+    sc = Scenario(  # checks the car (and holds a bundled one in its own spelling)
+        name=name, vehicle=car, plant="10dof",
+        controller=controller, controller_settings=dict(settings),
+        reference=ReferenceSpec(track=track or DEFAULT_TRACK), timing=timing,
+        sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
+    what = f"paper Section 4: {controller} on the 10DoF {sc.vehicle}"
     if "cf_scale" in settings:
         what += (f", {settings['cf_scale']:g} Cf and {settings['cr_scale']:g} Cr in its model "
                  "(Figure 2)")
     if imu:
         what += " (lateral F from the inertial unit, beyond the paper)"
-    return Scenario(
-        name=name, description=what,
-        vehicle=car, plant="10dof", controller=controller,
-        controller_settings=dict(settings),
-        reference=ReferenceSpec(track=track or DEFAULT_TRACK), timing=timing,
-        sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
+    return sc.with_(description=what)
 
 
 def paper_scenarios(*, noise: bool = True, track: str | None = None) -> dict[str, Scenario]:
@@ -261,19 +267,25 @@ def paper_scenarios(*, noise: bool = True, track: str | None = None) -> dict[str
     return {b: named_scenario(b + sfx, track=track) for b in _BASE}
 
 
-def recorded_steer(traj_time: np.ndarray, scenario: Scenario) -> np.ndarray:
+def recorded_steer(traj_time: np.ndarray, scenario: Scenario, *,
+                   reference=None) -> np.ndarray:
     """The recording's front road-wheel steer [rad] at the times of a run of ``scenario``.
 
     The run's clock starts at the reference's first sample, so the recorded steer is read at the
-    same reference time (``t_ref`` when the run logged it, else the clock).
+    same reference time (``t_ref`` when the run logged it, else the clock). ``reference``: the
+    scenario's reference (:class:`~flatfree.tracks.Reference`, ``prepare(scenario).reference``)
+    when the caller has it; None (default): built here, its warnings silenced (the run warned
+    already).
     """
-    import warnings
+    if reference is None:
+        import warnings
 
-    from flatfree.simulation import prepare  # late: simulation imports the heavy parts
+        from flatfree.simulation import prepare  # late: simulation imports the heavy parts
 
-    with warnings.catch_warnings():  # the run warned already; reading its reference repeats
-        warnings.simplefilter("ignore")
-        ref = prepare(scenario).reference
-    if "delta_recorded" not in ref.extras:
+        with warnings.catch_warnings():  # the run warned already; reading its reference repeats
+            warnings.simplefilter("ignore")
+            reference = prepare(scenario).reference
+    if "delta_recorded" not in reference.extras:
         raise ValueError(f"scenario {scenario.name!r}: its reference is not a recording")
-    return np.interp(np.asarray(traj_time, dtype=float), ref["t"], ref.extras["delta_recorded"])
+    return np.interp(np.asarray(traj_time, dtype=float), reference["t"],
+                     reference.extras["delta_recorded"])

@@ -50,7 +50,12 @@ from numba import njit
 from flatfree._validate import finite, nonnegative, positive
 from flatfree._vecmath import no_refcount
 
-__all__ = ["SensorChannel", "SensorSuite", "CompiledSensors", "sense_step"]
+__all__ = ["SENSOR_CHANNELS", "SensorChannel", "SensorSuite", "CompiledSensors", "sense_step"]
+
+#: The measured signals of the closed loop, in the order the sensors see them
+#: (:mod:`flatfree.simulation`): the names a scenario's sensor tables and measurement faults
+#: may use.
+SENSOR_CHANNELS = ("x", "y", "psi", "vx", "vy", "r", "ax", "ay")
 
 # columns of the compiled parameter table
 _NOISE, _BIAS, _PERIOD, _DELAY = 0, 1, 2, 3

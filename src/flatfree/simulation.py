@@ -67,6 +67,7 @@ from numba import njit
 from flatfree._validate import as_real
 from flatfree._vecmath import no_refcount
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
+from flatfree.controllers.flatness import singular_speed
 from flatfree.controllers.intelligent import IST
 from flatfree.controllers.vehicle import (
     CREF,
@@ -76,7 +77,6 @@ from flatfree.controllers.vehicle import (
     VehicleControllerArrays,
     build_flatness,
     build_mfc,
-    flat_output_singular_speed,
     settings_from_mapping,
     vehicle_step,
     wants_ey_ddot,
@@ -87,7 +87,7 @@ from flatfree.models.bicycle3dof import Bicycle3DoFParams, rk4_step_into
 from flatfree.models.tendof import NU, TenDoF, TenDoFState, drive_speed, rk4_step_kernel
 from flatfree.scenario import Scenario
 from flatfree.scenarios import SCENARIO_NAMES, named_scenario
-from flatfree.sensors import sense_step
+from flatfree.sensors import SENSOR_CHANNELS, sense_step
 from flatfree.tracks import (
     GC,
     RS,
@@ -120,8 +120,6 @@ DEFAULT_HALF_WIDTH_M = 7.5
 #: piecewise-constant ax is smeared over 10 ms at its jumps (RMS 1 % of its range).
 #: Engineering choice.
 REFERENCE_DT_S = 0.01
-#: Measured signals, in the order the sensors see them.
-SENSOR_CHANNELS = ("x", "y", "psi", "vx", "vy", "r", "ax", "ay")
 _N_SENS = len(SENSOR_CHANNELS)
 # the accelerometers came after the first six channels: their noise is drawn after them, so a
 # seed gives x ... r the noise it gave before (SensorSuite.compile ``blocks``)
@@ -639,13 +637,13 @@ def _warn_if_beyond_steer_lock(ref: Reference, vehicle: VehicleParams) -> None:
 def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
                                   controller: str, vehicle: VehicleParams) -> None:
     """Warn when a flat-output design's reference passes the speed where the steer loses its
-    authority over y2 (:func:`flatfree.controllers.vehicle.flat_output_singular_speed`)."""
+    authority over y2 (:func:`flatfree.controllers.flatness.singular_speed`)."""
     if controller not in ("flatness", "mfc-flat"):
         return
-    v_star = flat_output_singular_speed(model)
+    v_star = singular_speed(model)
     vx = np.asarray(ref["vx"], dtype=float)
     vx = vx[np.isfinite(vx)]
-    if math.isnan(v_star) or vx.size == 0 or not vx.min() <= v_star <= vx.max():
+    if v_star is None or vx.size == 0 or not vx.min() <= v_star <= vx.max():
         return
     warnings.warn(
         f"{controller} on {vehicle.name}: the reference's speed ({vx.min():.1f}-{vx.max():.1f} "
@@ -711,9 +709,10 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
                          steer0=float(lat.delta[0]))
     if schedule == "path":
         # the run ends at the end of the path: by default leave time for a car slower than the
-        # profile; a longer requested duration is capped at twice that horizon (the loop's
-        # sensor noise and log are allocated for the whole duration: 3600 s asked of a 99 s
-        # lap took 0.5 GB), far beyond any car that follows the profile
+        # profile; a longer requested duration is capped at twice that horizon, far beyond any
+        # car that follows the profile (the loop's sensor noise, 8 floats a control step, and
+        # its log, len(LOG) = 27 floats a logged sample, are allocated for the whole duration:
+        # 0.3 GB for an hour at 1 kHz control and a 100 Hz log)
         horizon = 1.5 * ref.duration + 5.0
         duration = horizon if sc.timing.duration_s is None else min(sc.timing.duration_s,
                                                                      2.0 * horizon)
@@ -827,6 +826,9 @@ def _as_scenario(sc) -> Scenario:
 def _python_command(controller, t: float, out) -> tuple[float, float]:
     """A Python controller's return value as (torque, steer) floats; ``ValueError`` naming the
     call for anything but two real numbers (non-finite ones pass: :class:`PythonController`)."""
+    if type(out) is tuple and len(out) == 2 and isinstance(out[0], float) and isinstance(
+            out[1], float):
+        return out  # the common case: two floats (Python or NumPy)
     try:
         tw, delta = out
     except (TypeError, ValueError):
@@ -853,9 +855,9 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
     controller : PythonController, optional
         A user's controller (Python object with ``step``) replacing ``sc.controller``. The same
         compiled engine runs, pausing at every control step to call it: a few microseconds of
-        Python per call (measured at 1 kHz on the 10DoF, 2026-11-22: ~270x real time with a
-        controller returning constants, ~210x with one calling the built-in compiled kernel;
-        ~870x without; benchmarks/README.md "Closed loop"). Its commands must be real numbers
+        Python per call (benchmarks/README.md "Closed loop": 279-288x real time with a
+        controller returning constants at 1 kHz on the 10DoF, against about 1000x for the
+        built-in controllers). Its commands must be real numbers
         (``ValueError`` otherwise); non-finite ones are counted and warned about (below).
 
     Returns
@@ -865,8 +867,7 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
         ``yaw_error`` and ``course_error``, the direction of the CoG velocity minus the path
         heading), status and its time, and ``meta``: ``real_time_factor`` (simulated over wall
         time of the loop) and ``wall_time_s``, which leave out compiling the loop or loading
-        it from numba's cache (``compile_time_s``; ``compiled_new_loop`` says whether this
-        call did it, ``compiled_while_timed`` that the timed run compiled nothing more).
+        it from numba's cache (``compile_time_s``).
         ``n_nonfinite_torque_cmd`` and ``n_nonfinite_steer_cmd`` count the control steps
         whose torque / steer command was not finite, and ``first_nonfinite_cmd_t_s`` is the
         time of the first such step (None: none). The actuators hold the previous command in
@@ -895,8 +896,16 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
     tpf = vehicle.tire_front.to_array()
     tpr = vehicle.tire_rear.to_array()
     n_ctrl = prep.n_steps // timing.control_every + 1
-    sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl, sc.seed,
-                                        blocks=_SENSOR_BLOCKS)
+    n_log = prep.n_steps // timing.log_every + 1
+    try:  # the sensor noise and the log of the whole duration
+        sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl,
+                                            sc.seed, blocks=_SENSOR_BLOCKS)
+        log = np.full((n_log, len(LOG)), np.nan)
+    except MemoryError as exc:
+        d = timing.duration_s
+        d = "the run" if d is None else f"timing.duration_s = {d:g} s"
+        raise ValueError(f"{d}: the run's sensor noise and log, allocated for the whole "
+                         f"duration, do not fit in memory ({exc})") from None
     act_p = prep.actuators.to_array(timing.plant_dt_s)
     act_s = actuator_state(prep.actuators, timing.plant_dt_s, steer0=prep.steer0)
     patches = np.array([[p.s_start_m, p.s_end_m, p.mu] for p in sc.road.patches],
@@ -909,12 +918,6 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
                       if f.kind == "nan_measurement"], dtype=float).reshape(-1, 3)
     steer_f = np.array([[f.t_start_s, f.t_start_s + f.duration_s, f.value] for f in sc.faults
                         if f.kind == "steer_limit"], dtype=float).reshape(-1, 3)
-    for f in sc.faults:
-        if f.kind == "nan_measurement" and f.channel not in SENSOR_CHANNELS:
-            raise ValueError(f"fault.channel = {f.channel!r}: valid channels: "
-                             f"{', '.join(SENSOR_CHANNELS)}")
-    n_log = prep.n_steps // timing.log_every + 1
-    log = np.full((n_log, len(LOG)), np.nan)
     ctrl = prep.controller
     x = prep.x0.copy()
     ls = np.zeros(_LS_N)
@@ -940,12 +943,10 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
                 DEFAULT_HALF_WIDTH_M, k0, ls, meas, crow, scratch)
 
     # compile the loop (or load it from numba's cache) before the clock starts: the real-time
-    # factor is the loop's, not the compiler's (a fresh clone's first run compiles for ~10 s)
+    # factor is the loop's, not the compiler's (a fresh clone's first run compiles for seconds)
     t_compile = time.perf_counter()
-    compiled_before = len(_closed_loop.signatures)
     _closed_loop.compile(tuple(numba.typeof(a) for a in loop_args(0)))
     compile_s = time.perf_counter() - t_compile
-    compiled = len(_closed_loop.signatures)
     t0 = time.perf_counter()
     k0 = 0
     n_calls = 0
@@ -958,12 +959,7 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
         t_call = k_stop * timing.plant_dt_s
         out = controller.step(t_call, meas, crow[1:], applied)
         n_calls += 1
-        # the common path: a tuple of two floats (Python or NumPy), one test each
-        if type(out) is tuple and len(out) == 2 and isinstance(out[0], float) and isinstance(
-                out[1], float):
-            tw, delta = out
-        else:
-            tw, delta = _python_command(controller, t_call, out)
+        tw, delta = _python_command(controller, t_call, out)
         if not (math.isfinite(tw) and math.isfinite(delta)):
             _count_nonfinite(ls, k_stop, tw, delta)
         ls[_LS_TW_CMD] = tw
@@ -995,11 +991,8 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
         "track": sc.reference.track or sc.reference.recording,
         "real_time_factor": sim_time / wall if wall > 0 else math.nan,
         "wall_time_s": wall,
-        # time to compile the loop or load it from the cache, outside wall_time_s; and
-        # whether the timed run compiled anything more (it should not)
+        # time to compile the loop or load it from the cache, outside wall_time_s
         "compile_time_s": compile_s,
-        "compiled_new_loop": compiled > compiled_before,
-        "compiled_while_timed": len(_closed_loop.signatures) > compiled,
         # control steps whose command was not finite (the actuators held the previous one)
         "n_nonfinite_torque_cmd": int(ls[_LS_NF_TW]),
         "n_nonfinite_steer_cmd": int(ls[_LS_NF_DE]),

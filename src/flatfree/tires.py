@@ -672,10 +672,7 @@ def _check_mu(mu_scale) -> np.ndarray:
 
 
 def _as_float_array(name: str, value, unit: str) -> np.ndarray:
-    try:
-        a = real_array(name, value)
-    except (TypeError, ValueError):  # text, booleans, None, ragged nesting
-        raise ValueError(f"{name} = {value!r} {unit}: expected real numbers") from None
+    a = real_array(name, value, unit)
     if np.any(np.isnan(a)):
         raise ValueError(f"{name} = {value!r} {unit}: contains NaN")
     return a

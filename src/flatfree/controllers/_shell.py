@@ -6,10 +6,11 @@ shared part; subclasses add ``reset()``, ``step(...)`` and ``status``.
 
 Arguments of ``step`` (called once per control period in users' Python loops) are checked at
 the door, cheaply: a float (Python or NumPy float64) passes as it is, in one ``isinstance``
-test (``x if isinstance(x, float) else real_arg(...)``); anything else goes through
-:func:`real_arg`, which refuses text, ``None``, booleans and arrays with a ``ValueError``
-naming the argument (the compiled kernels would give numba's ``TypeError``/``TypingError``).
-Non-finite values pass: each controller documents its policy for a missing sample. A step
+test (``x if isinstance(x, float) else real(...)``); anything else goes through
+:func:`flatfree._validate.real`, which refuses text, ``None``, booleans and arrays with a
+``ValueError`` naming the argument (the compiled kernels would give numba's
+``TypeError``/``TypingError``). Non-finite values pass: each controller documents its policy
+for a missing sample. A step
 whose command comes out non-finite (the arithmetic overflowed: values of the order of 1e300)
 raises :func:`nonfinite_command`'s ``ValueError`` instead of returning NaN.
 """
@@ -20,19 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from flatfree._validate import real
-
-__all__ = ["CompiledController", "real_arg", "nonfinite_command"]
-
-
-def real_arg(name: str, value, unit: str = "") -> float:
-    """``value`` as a float for a compiled step; ``ValueError`` naming ``name`` unless it is one
-    real number (text, ``None``, booleans and arrays other than 0-d are not). Non-finite values
-    pass (the caller's policy). The slow path of ``x if isinstance(x, float) else real_arg(...)``.
-    """
-    if type(value) is int:  # a plain int (not a bool): the common case of this slow path
-        return float(value)
-    return real(name, value, unit)
+__all__ = ["CompiledController", "nonfinite_command"]
 
 
 def nonfinite_command(owner: str, command: str, value: float, inputs: dict[str, float],

@@ -547,7 +547,15 @@ def det_delta(params: Bicycle3DoFParams, vx: float, *, wdot_f: float = 0.0) -> f
 def singular_speed(params: Bicycle3DoFParams) -> float | None:
     """The speed vx* [m/s] where det Delta and map A are singular, or None if Iz >= lf lr m.
 
-    ``vx* = sqrt(Cr L (lf lr m - Iz)) / (lf m)``.
+    ``vx* = sqrt(Cr L (lf lr m - Iz)) / (lf m)``, real only for a yaw index Iz / (m lf lr) < 1.
+    There the steer loses its authority over the flat output y2 = lf m Vy - Iz r: it cancels in
+    y2' (NOTES.md) and acts on y2'' with ``d y2'' / d delta = C_f C_r L G(Vx) / (m Iz Vx)``,
+    G the steady ratio d y2 / d r (:func:`flatfree.controllers.vehicle.y2_per_r`; sympy,
+    tests/test_paper_scenarios.py), which vanishes at vx*. So both flat-output designs fail
+    near it: the flatness controller's decoupling matrix is singular and the flat-output
+    model-free loop has no input gain (its sign reversed below vx*). The peugeot406 (yaw index
+    1.00) has vx* = 0.58 m/s; the dallara_av21 (0.59) 10.8 m/s, which its recording passes
+    when it stops at the end.
 
     References
     ----------

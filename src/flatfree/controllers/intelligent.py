@@ -133,9 +133,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from flatfree._validate import finite, positive
+from flatfree._validate import finite, positive, positive_or_inf, real
 from flatfree._vecmath import no_refcount
-from flatfree.controllers._shell import CompiledController, nonfinite_command, real_arg
+from flatfree.controllers._shell import CompiledController, nonfinite_command
 from flatfree.estimators import derivative_weights, f_estimator_weights
 
 __all__ = [
@@ -785,8 +785,7 @@ class IntelligentParams:
     anti_windup: str = "clamp"
 
     def __post_init__(self) -> None:
-        if isinstance(self.nu, bool) or self.nu not in (1, 2):
-            raise ValueError(f"nu = {self.nu!r}: must be 1 or 2")
+        _check_nu(self.nu)
         a = finite("alpha", self.alpha, "(y-unit/s^nu) per u-unit")
         if a == 0.0:
             raise ValueError(f"alpha = {self.alpha!r} (y-unit/s^nu) per u-unit: must be nonzero")
@@ -815,15 +814,13 @@ class IntelligentParams:
             _check_window("derivative_window", self.derivative_window, lo, "the e' estimator")
         elif self.nu == 2 and self.derivative == "model":
             _check_window("window", self.window, 3, "the model derivative")
-        umin = float(self.u_min)
-        umax = float(self.u_max)
+        umin = real("u_min", self.u_min, "u-unit")
+        umax = real("u_max", self.u_max, "u-unit")
         if math.isnan(umin) or math.isnan(umax) or not umin < umax:
             raise ValueError(
                 f"u_min = {self.u_min!r}, u_max = {self.u_max!r} u-unit: need u_min < u_max"
             )
-        r = float(self.rate_max)
-        if not r > 0.0:
-            raise ValueError(f"rate_max = {self.rate_max!r} u-unit/s: must be > 0 (inf: none)")
+        positive_or_inf("rate_max", self.rate_max, "u-unit/s")
         finite("u0", self.u0, "u-unit")
 
     @property
@@ -909,6 +906,12 @@ def _moment_constants(p: np.ndarray, L: int) -> None:
     p[_MOM] = 1.0
 
 
+def _check_nu(nu) -> None:
+    """The order of the ultra-local model: 1 or 2 (``True`` is not an order)."""
+    if isinstance(nu, (bool, np.bool_)) or nu not in (1, 2):
+        raise ValueError(f"nu = {nu!r}: must be 1 or 2")
+
+
 def _check_window(name: str, value, lo: int, what: str) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name} = {value!r} samples: expected an integer")
@@ -973,8 +976,7 @@ def error_dynamics_gains(
     .. [P] paper Section 3.2.2 (closed-loop error equation); NOTES.md "Intelligent controllers".
     """
     p = 0.0 if integral_pole is None else positive("integral_pole", integral_pole, "1/s")
-    if isinstance(nu, (bool, np.bool_)):  # True == 1: not an order
-        raise ValueError(f"nu = {nu!r}: must be 1 or 2")
+    _check_nu(nu)
     if nu == 1:
         if time_constant is None:
             raise ValueError("time_constant = None: required for nu = 1 (the error's time "
@@ -1000,7 +1002,6 @@ def error_dynamics_gains(
         return ErrorDynamicsGains(
             kp=wn * wn + 2.0 * z * wn * p, ki=wn * wn * p, kd=2.0 * z * wn + p
         )
-    raise ValueError(f"nu = {nu!r}: must be 1 or 2")
 
 
 # --------------------------------------------------------------------------------------------
@@ -1089,12 +1090,12 @@ class IntelligentController(CompiledController):
         overflowed values, which would make every later output NaN).
         """
         # the common path (floats) costs one type test per argument (_shell docstring)
-        y = y if isinstance(y, float) else real_arg("y", y)
-        y_ref = y_ref if isinstance(y_ref, float) else real_arg("y_ref", y_ref)
+        y = y if isinstance(y, float) else real("y", y)
+        y_ref = y_ref if isinstance(y_ref, float) else real("y_ref", y_ref)
         if not isinstance(y_ref_dot, float):
-            y_ref_dot = real_arg("y_ref_dot", y_ref_dot)
+            y_ref_dot = real("y_ref_dot", y_ref_dot)
         if not isinstance(y_ref_ddot, float):
-            y_ref_ddot = real_arg("y_ref_ddot", y_ref_ddot)
+            y_ref_ddot = real("y_ref_ddot", y_ref_ddot)
         u = intelligent_step(self._p, self._s, y, y_ref, y_ref_dot, y_ref_ddot)
         if not math.isfinite(u):  # the law overflowed (a finite u0 is always held)
             self.reset()
@@ -1127,12 +1128,12 @@ class IntelligentController(CompiledController):
         return f"{type(self).__name__}({self._params!r})"
 
 
-def _fixed_zero(cls: str, options: dict, gains: tuple[tuple[str, str, str], ...]) -> None:
-    """Refuse a gain that a shorthand fixes at 0 (given in ``options``) unless it is 0."""
-    for name, unit, instead in gains:
-        if name in options and finite(name, options[name], unit) != 0.0:
-            raise ValueError(f"{name} = {options[name]!r} {unit}: must be 0 for an {cls} "
-                             f"(use {instead})")
+def _no_integral(cls: str, options: dict, unit: str, instead: str) -> None:
+    """Refuse a nonzero ``ki`` in a shorthand without an integral term (IP, IPD); ``kd`` of an
+    IP is refused by :class:`IntelligentParams` itself (nu = 1)."""
+    if "ki" in options and finite("ki", options["ki"], unit) != 0.0:
+        raise ValueError(f"ki = {options['ki']!r} {unit}: must be 0 for an {cls} (use {instead} "
+                         "for an integral term)")
 
 
 class IP(IntelligentController):
@@ -1152,8 +1153,7 @@ class IP(IntelligentController):
     def __init__(
         self, *, alpha: float, kp: float, dt: float, window: int, **options
     ) -> None:
-        _fixed_zero("IP", options, (("ki", "1/s^2", "IPI for an integral term"),
-                                    ("kd", "1/s", "IPD for a derivative term")))
+        _no_integral("IP", options, "1/s^2", "IPI")
         super().__init__(
             IntelligentParams(nu=1, alpha=alpha, kp=kp, dt=dt, window=window, **options)
         )
@@ -1190,7 +1190,7 @@ class IPD(IntelligentController):
     def __init__(
         self, *, alpha: float, kp: float, kd: float, dt: float, window: int, **options
     ) -> None:
-        _fixed_zero("IPD", options, (("ki", "1/s^3", "IPID for an integral term"),))
+        _no_integral("IPD", options, "1/s^3", "IPID")
         super().__init__(
             IntelligentParams(nu=2, alpha=alpha, kp=kp, kd=kd, dt=dt, window=window, **options)
         )

@@ -63,8 +63,8 @@ paper therefore stands for the effect of the steer on y2' accumulated over the e
 and alpha_lat must be negative (:class:`MfcFlatSettings`). The paper reports this design as
 clearly worse than the natural-output one (lateral errors above 10 cm). In general
 Delta_22 = C_f C_r L G(Vx) / (m Iz Vx) with G the steady ratio d y2 / d r (:func:`y2_per_r`): it
-vanishes at the speed :func:`flat_output_singular_speed` of a car whose yaw index
-Iz / (m lf lr) is below 1, where both flat-output designs lose the steer (the dallara_av21 at
+vanishes at the speed :func:`flatfree.controllers.flatness.singular_speed` of a car whose yaw
+index Iz / (m lf lr) is below 1, where both flat-output designs lose the steer (the dallara_av21 at
 10.8 m/s; ``simulation.prepare`` warns when a reference passes it).
 
 References
@@ -85,9 +85,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from flatfree._validate import finite, positive, whole
+from flatfree._validate import as_real, finite, positive, real, whole
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
-from flatfree.controllers._shell import nonfinite_command, real_arg
+from flatfree.controllers._shell import nonfinite_command
 from flatfree.controllers.flatness_control import (
     FlatnessControlParams,
     flatness_step,
@@ -126,7 +126,6 @@ __all__ = [
     "vehicle_step",
     "path_correction",
     "y2_per_r",
-    "flat_output_singular_speed",
     "OUTER_WN",
     "OUTER_ZETA",
     "MFC_FLAT_OUTER_WN",
@@ -192,12 +191,9 @@ def _check_denoise(settings) -> None:
         if not hasattr(settings, k):
             continue
         v = getattr(settings, k)
-        try:
-            n = whole(k, v, 0, "samples")
-        except ValueError:
-            n = 1
-        if n == 1:
-            raise ValueError(f"{k} = {v!r}: must be 0 (off) or an integer >= 2 samples")
+        # 0 (off), or a window of at least 2 samples, stored as an int (a TOML 100.0 too)
+        object.__setattr__(settings, k, 0 if as_real(v) == 0.0 else
+                           whole(k, v, 2, "samples (0: off)"))
 
 
 def _denoiser(n: int) -> np.ndarray:
@@ -249,29 +245,6 @@ def y2_per_r(model: Bicycle3DoFParams, vx: np.ndarray | float) -> np.ndarray:
     vx = np.asarray(vx, dtype=float)
     return model.lf * model.m * model.lr - model.iz - (model.lf * model.m * vx) ** 2 / (
         model.cr * big_l)
-
-
-def flat_output_singular_speed(model: Bicycle3DoFParams) -> float:
-    """Speed [m/s] at which the steer loses its authority over the flat output y2 (NaN: none).
-
-    In the linear 3DoF model the steer cancels in y2' (NOTES.md) and acts on y2'' with
-
-        d y2'' / d delta = C_f C_r L G(Vx) / (m Iz Vx),      G = :func:`y2_per_r`,
-
-    (sympy, tests/test_paper_scenarios.py), so the steer's effect on y2 and the steady ratio
-    d y2 / d r vanish together where G(Vx) = 0:
-
-        v* = sqrt(L C_r (m lf lr - Iz)) / (lf m),
-
-    real only for a yaw index Iz / (m lf lr) < 1. Near v* the flatness controller's decoupling
-    matrix is singular and the flat-output model-free loop has no input gain; below it the
-    gain's sign is reversed. The peugeot406 (yaw index 1.00) has v* = 0.58 m/s; the
-    dallara_av21 (0.59) 10.8 m/s, which its recording passes when it stops at the end.
-    """
-    a = model.lf * model.m * model.lr - model.iz
-    if a <= 0.0:
-        return math.nan
-    return math.sqrt((model.lf + model.lr) * model.cr * a) / (model.lf * model.m)
 
 
 @njit(cache=True)
@@ -502,8 +475,8 @@ class MfcNaturalSettings:
         if finite("wn_lat_ratio", self.wn_lat_ratio, "-") < 1.0:
             raise ValueError(f"wn_lat_ratio = {self.wn_lat_ratio!r}: must be >= 1")
         positive("zeta_lat", self.zeta_lat, "-")
-        for k in ("window_lon", "window_lat"):
-            whole(k, getattr(self, k), 3, "samples")
+        for k in ("window_lon", "window_lat"):  # stored as ints (a TOML 100.0 too)
+            object.__setattr__(self, k, whole(k, getattr(self, k), 3, "samples"))
         if self.derivative_lat not in ("model", "algebraic"):
             raise ValueError(
                 f"derivative_lat = {self.derivative_lat!r}: must be 'model' or 'algebraic'")
@@ -555,9 +528,10 @@ class MfcFlatSettings:
     seed 1. The steer still moves close to its rate limit of 0.4 rad/s (steer-rate RMS
     0.31 rad/s, 0.21 noise-free): the nu = 1 iPI on a relative-degree-2 output is the limit
     of this design. On a car with a yaw index Iz / (m lf lr) below 1 the steer's effect on y2
-    vanishes at :func:`flat_output_singular_speed` and reverses below it: the dallara_av21
-    (10.8 m/s) follows its recording within 10.75 cm until the recorded car brakes through
-    that speed at the end, then leaves the path (1.1 m in the last 1.5 s, noise-free too).
+    vanishes at :func:`flatfree.controllers.flatness.singular_speed` and reverses below it:
+    the dallara_av21 (10.8 m/s) follows its recording within 10.75 cm until the recorded car
+    brakes through that speed at the end, then leaves the path (1.1 m in the last 1.5 s,
+    noise-free too).
     """
 
     alpha_lon: float = 0.002
@@ -590,8 +564,8 @@ class MfcFlatSettings:
         for k in ("ki_lon", "ki_lat"):
             if finite(k, getattr(self, k), "1/s^2") < 0.0:
                 raise ValueError(f"{k} = {getattr(self, k)!r} 1/s^2: must be >= 0")
-        for k in ("window_lon", "window_lat"):
-            whole(k, getattr(self, k), 2, "samples")
+        for k in ("window_lon", "window_lat"):  # stored as ints (a TOML 100.0 too)
+            object.__setattr__(self, k, whole(k, getattr(self, k), 2, "samples"))
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -1080,24 +1054,24 @@ class NaturalOutputController:
             an error (held, above): the outputs stay finite.
         """
         # the common path (floats) costs one type test per argument (_shell docstring)
-        vx = vx if isinstance(vx, float) else real_arg("vx", vx, "m/s")
-        r = r if isinstance(r, float) else real_arg("r", r, "rad/s")
-        e_y = e_y if isinstance(e_y, float) else real_arg("e_y", e_y, "m")
-        kappa = kappa if isinstance(kappa, float) else real_arg("kappa", kappa, "1/m")
-        vx_ref = vx_ref if isinstance(vx_ref, float) else real_arg("vx_ref", vx_ref, "m/s")
-        ax_ref = ax_ref if isinstance(ax_ref, float) else real_arg("ax_ref", ax_ref, "m/s^2")
+        vx = vx if isinstance(vx, float) else real("vx", vx, "m/s")
+        r = r if isinstance(r, float) else real("r", r, "rad/s")
+        e_y = e_y if isinstance(e_y, float) else real("e_y", e_y, "m")
+        kappa = kappa if isinstance(kappa, float) else real("kappa", kappa, "1/m")
+        vx_ref = vx_ref if isinstance(vx_ref, float) else real("vx_ref", vx_ref, "m/s")
+        ax_ref = ax_ref if isinstance(ax_ref, float) else real("ax_ref", ax_ref, "m/s^2")
         if not isinstance(e_y_ref, float):
-            e_y_ref = real_arg("e_y_ref", e_y_ref, "m")
+            e_y_ref = real("e_y_ref", e_y_ref, "m")
         if not isinstance(e_y_ref_dot, float):
-            e_y_ref_dot = real_arg("e_y_ref_dot", e_y_ref_dot, "m/s")
+            e_y_ref_dot = real("e_y_ref_dot", e_y_ref_dot, "m/s")
         if not isinstance(e_y_ref_ddot, float):
-            e_y_ref_ddot = real_arg("e_y_ref_ddot", e_y_ref_ddot, "m/s^2")
+            e_y_ref_ddot = real("e_y_ref_ddot", e_y_ref_ddot, "m/s^2")
         if not isinstance(e_y_ddot, float):
-            e_y_ddot = real_arg("e_y_ddot", e_y_ddot, "m/s^2")
+            e_y_ddot = real("e_y_ddot", e_y_ddot, "m/s^2")
         if applied_torque is not None and not isinstance(applied_torque, float):
-            applied_torque = real_arg("applied_torque", applied_torque, "N m")
+            applied_torque = real("applied_torque", applied_torque, "N m")
         if applied_steer is not None and not isinstance(applied_steer, float):
-            applied_steer = real_arg("applied_steer", applied_steer, "rad")
+            applied_steer = real("applied_steer", applied_steer, "rad")
         prev = self._prev
         vx_then = vx if math.isnan(self._vx_prev) else self._vx_prev
         model_tw, model_delta = actuate_step(prev[0], prev[1], vx_then, self._act_p,

@@ -147,9 +147,9 @@ class Stream:
         """Push one sample; return the estimate at this sample."""
         k = self._k
         self._k = k + 1
-        x = sample if type(sample) is float else real(f"sample[{k}]", sample)
+        x = sample if isinstance(sample, float) else real(f"sample[{k}]", sample)
         if not math.isfinite(x) and (self._raise or not math.isfinite(self.state[_HELD])):
-            raise ValueError(nonfinite_message("sample", k, x, self._raise))
+            raise ValueError(nonfinite_message("sample", k, float(x), self._raise))
         return fir_update(self.state, x)
 
     def update_many(self, samples) -> np.ndarray:
@@ -351,12 +351,12 @@ class FEstimator:
         return ``F_hat[k]``."""
         k = self._k
         self._k = k + 1
-        yv = y if type(y) is float else real(f"y[{k}]", y)
-        uv = u_prev if type(u_prev) is float else real(f"u_prev[{k}]", u_prev)
+        yv = y if isinstance(y, float) else real(f"y[{k}]", y)
+        uv = u_prev if isinstance(u_prev, float) else real(f"u_prev[{k}]", u_prev)
         if not (math.isfinite(yv) and math.isfinite(uv)):
             for name, v, ks in (("y", yv, self.state_y), ("u_prev", uv, self.state_u)):
                 if not math.isfinite(v) and (self._raise or not math.isfinite(ks[_HELD])):
-                    raise ValueError(nonfinite_message(name, k, v, self._raise))
+                    raise ValueError(nonfinite_message(name, k, float(v), self._raise))
         return f_update(self.state_y, self.state_u, self.alpha, yv, uv)
 
 

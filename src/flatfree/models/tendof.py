@@ -49,8 +49,8 @@ a left-hand turn banked for speed has ``bank < 0``); 0: a flat road (Model, item
 ``e_psi_road`` [rad] the car's heading relative to the road's tangent there (``psi`` minus
 the road's heading; the closed loop passes its Frenet heading error): it turns the bank's
 slope, which falls across the road, into body axes (0: across the body). An input of 6
-entries is a flat road, of 7 a bank taken across the body. Input limits are *not* in the
-model (the actuators clip them).
+entries (without the last two) is a flat road. Input limits are *not* in the model (the
+actuators clip them).
 
 Model
 -----
@@ -828,9 +828,10 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
     dx[_PSI] = r
     dx[_VX] = ax + r * vy
     dx[_VY] = ay - r * vx
-    if sby != 0.0 or sbx != 0.0:  # gravity down the bank's slope (Model, item 7)
-        dx[_VX] -= p[_G] * sbx
-        dx[_VY] -= p[_G] * sby
+    # gravity down the bank's slope (Model, item 7); exactly nothing on a flat road, where
+    # _bank_trig gives sbx = sby = 0 (x - 0.0 is x)
+    dx[_VX] -= p[_G] * sbx
+    dx[_VY] -= p[_G] * sby
     dx[_R] = mz * p[_INVIZ]
 
     # ---- sprung body ([VM] 1.4, module docstring item 2) ----
@@ -962,9 +963,9 @@ def _as_state(x, name: str = "x") -> np.ndarray:
 
 
 def _complete_inputs(a: np.ndarray) -> np.ndarray:
-    """Inputs of 6 (a flat road) or 7 entries (a bank across the body) completed with zeros to
-    the :class:`TenDoFInput` layout; any other length is returned as it is."""
-    if a.ndim >= 1 and a.shape[-1] in (NU - 2, NU - 1):
+    """Inputs of 6 entries (a flat road) completed with zeros to the :class:`TenDoFInput`
+    layout; any other length is returned as it is."""
+    if a.ndim >= 1 and a.shape[-1] == NU - 2:
         a = np.concatenate((a, np.zeros((*a.shape[:-1], NU - a.shape[-1]))), axis=-1)
     return a
 

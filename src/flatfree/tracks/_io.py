@@ -19,7 +19,9 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
+import os
 import re
 from dataclasses import dataclass
 from importlib import resources
@@ -32,6 +34,7 @@ __all__ = [
     "MIN_POINTS",
     "MIN_SEGMENT_M",
     "RawData",
+    "bundled_name",
     "read_csv",
     "track_names",
     "raceline_names",
@@ -83,35 +86,59 @@ def recording_names() -> list[str]:
     return [n for n in _csv_names(_RECORDINGS) if not n.startswith("lvms_")]
 
 
+#: The kinds of bundled CSV data: the folder and the names of each.
+_FOLDERS = {"track": _TRACKS, "raceline": _RACELINES, "recording": _RECORDINGS}
+_NAMES = {"track": track_names, "raceline": raceline_names, "recording": recording_names}
+
+
+@functools.cache
+def _by_lower(kind: str) -> dict[str, str]:
+    """{lower-case name: name} of the bundled data of ``kind`` (fixed while the program runs);
+    a track may also be a recording's name (its driven path), after the tracks' own names."""
+    extra = recording_names() if kind == "track" else []
+    by_lower = {n.lower(): n for n in extra}
+    by_lower.update({n.lower(): n for n in _NAMES[kind]()})  # a track's own name wins
+    return by_lower
+
+
+def bundled_name(name: Any, kind: str = "track") -> str | None:
+    """The bundled ``kind`` (``"track"``, ``"raceline"`` or ``"recording"``) that ``name``
+    names, in its own spelling (``"monza"``, ``" Monza.csv"`` -> ``"Monza"``), else None.
+
+    The one name lookup of the loaders (:func:`resolve`): case-insensitive, surrounding blanks
+    and a ``.csv`` suffix ignored; a ``"track"`` may also be a recording's name (its driven
+    path). It looks at names only: a loader reads a value naming an existing file as that file
+    first. Anything but a ``str`` or ``os.PathLike`` is no name (None).
+    """
+    if kind not in _FOLDERS:
+        raise ValueError(f"kind = {kind!r}: must be one of {', '.join(_FOLDERS)}")
+    if not isinstance(name, (str, os.PathLike)):
+        return None
+    key = os.fspath(name).strip().lower()
+    return _by_lower(kind).get(key.removesuffix(".csv"))
+
+
 def resolve(name_or_path: str | Path, kind: str) -> tuple[Any, str]:
     """Return ``(file, display_name)`` for a bundled name (case-insensitive) or a path.
 
     ``kind`` is ``"track"``, ``"raceline"`` or ``"recording"``. A string that names an existing
-    file is read as a path; a bundled name wins otherwise. ``"LVMS"`` returns ``(None, "LVMS")``
-    (built from the bound files by the caller).
+    file is read as a path; a bundled name (:func:`bundled_name`) wins otherwise. ``"LVMS"``
+    returns ``(None, "LVMS")`` (built from the bound files by the caller).
     """
     p = Path(name_or_path)
     if p.is_file():
         return p, str(p)
-    key = str(name_or_path).strip()
-    if key.lower().endswith(".csv"):
-        key = key[:-4]
-    folders = {"track": (_TRACKS, track_names()), "raceline": (_RACELINES, raceline_names()),
-               "recording": (_RECORDINGS, recording_names())}
-    folder, names = folders[kind]
-    by_lower = {n.lower(): n for n in names}
-    # a recording is also a valid "track" (its driven path)
-    if kind == "track" and key.lower() not in by_lower:
-        rec = {n.lower(): n for n in recording_names()}
-        if key.lower() in rec:
-            return _RECORDINGS / f"{rec[key.lower()]}.csv", f"{rec[key.lower()]}.csv"
-    if key.lower() in by_lower:
-        name = by_lower[key.lower()]
+    name = bundled_name(name_or_path, kind)
+    if name is not None:
         if kind == "track" and name == LVMS_NAME:
             return None, LVMS_NAME
+        own = name in _NAMES[kind]()  # else a recording's name given as a track
+        folder = _FOLDERS[kind] if own else _RECORDINGS
         return folder / f"{name}.csv", f"{name}.csv"
+    key = str(name_or_path).strip()
     if p.suffix or "/" in key or "\\" in key:
         raise ValueError(f"{kind} file not found: {str(name_or_path)!r}")
+    names = _NAMES[kind]()
     extra = f"; or a recording: {', '.join(recording_names())}" if kind == "track" else ""
     raise ValueError(
         f"unknown {kind} {str(name_or_path)!r}; bundled names: {', '.join(names)}{extra}; "

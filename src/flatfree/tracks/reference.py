@@ -561,10 +561,8 @@ def reference_states_3dof(
     y2 = lf * m * vy - iz * r  # NOTES.md: y2 = Lf m Vy - Iz r
     y2_dot = lf * m * vy_dot - iz * r_dot
     if method == "dynamic":
-        vxs = np.where(low, 1.0, vx)
-        # d/dt of y2_dot = -lf m Vx r - Cr L (Vy - lr r) / Vx  (NOTES.md)
-        y2_ddot = -lf * m * (ax * r + vx * r_dot) - cr * big_l * (
-            (vy_dot - lr * r_dot) / vxs - (vy - lr * r) * ax / (vxs * vxs))
+        y2_ddot = _y2_ddot_model(vx, ax, vy, vy_dot, r, r_dot, np.where(low, 1.0, vx), m, lf,
+                                 lr, cr)
         if low.any():
             y2_ddot = np.where(low, np.gradient(y2_dot, t), y2_ddot)
     else:
@@ -599,23 +597,26 @@ def _path_states(ref: Reference, cf: float, cr: float, m: float, iz: float, lf: 
     delta = (vy + lf * r) / vxs + fyf / cf
     y2 = lf * m * vy - iz * r
     y2_dot = lf * m * vy_dot - iz * r_dot
-    # d/dt of y2_dot = -lf m Vx r - Cr L (Vy - lr r) / Vx  (NOTES.md)
-    y2_ddot = -lf * m * (ax * r + vx * r_dot) - cr * big_l * (
-        (vy_dot - lr * r_dot) / vxs - (vy - lr * r) * ax / (vxs * vxs))
+    y2_ddot = _y2_ddot_model(vx, ax, vy, vy_dot, r, r_dot, vxs, m, lf, lr, cr)
     if low.any():
-        # quasi-steady below V_LOW (as the other methods): the kinematic yaw rate, numerical
-        # derivatives, the steer of the steady lateral balance
-        beta_qs = lr * kap + (iz * rk_dot - lf * m * v * v * kap) / (big_l * cr)
-        r = np.where(low, v * kap, r)
+        # quasi-steady below V_LOW (as the other methods): there the integration holds beta at
+        # its quasi-steady value with beta' = 0 (so r is the kinematic V kappa already);
+        # numerical derivatives, the steer of the steady lateral balance
         vy_dot = np.where(low, np.gradient(vy, t), vy_dot)
         fyf_qs = (lr * m * (v * v * kap) + iz * rk_dot) / big_l
-        delta = np.where(low, beta_qs + lf * kap + fyf_qs / cf, delta)
-        y2 = lf * m * vy - iz * r
+        delta = np.where(low, beta + lf * kap + fyf_qs / cf, delta)
         y2_dot = np.where(low, np.gradient(y2, t), y2_dot)
         y2_ddot = np.where(low, np.gradient(y2_dot, t), y2_ddot)
     return LateralReference(t=t, vx=vx, ax=ax, vy=vy, vy_dot=vy_dot, r=r, r_dot=r_dot,
                             delta=delta, y1=vx.copy(), y1_dot=ax.copy(), y2=y2, y2_dot=y2_dot,
                             y2_ddot=y2_ddot, method="path")
+
+
+def _y2_ddot_model(vx, ax, vy, vy_dot, r, r_dot, vxs, m, lf, lr, cr):
+    """d/dt of the 3DoF model's y2_dot = -lf m Vx r - Cr L (Vy - lr r) / Vx (NOTES.md), with
+    ``vxs`` the speed to divide by (1 where the caller replaces the low-speed samples)."""
+    return -lf * m * (ax * r + vx * r_dot) - cr * (lf + lr) * (
+        (vy_dot - lr * r_dot) / vxs - (vy - lr * r) * ax / (vxs * vxs))
 
 
 @numba.njit(cache=True)

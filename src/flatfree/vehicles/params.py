@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import functools
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
@@ -30,6 +32,7 @@ __all__ = [
     "TP",
     "VP",
     "DRIVE_CODES",
+    "bundled_name",
     "CORNERING_LAW_CODES",
     "load_tire",
     "load_vehicle",
@@ -352,15 +355,44 @@ def _read_toml(path_or_resource, what: str) -> dict:
         raise ValueError(f"{what}: malformed TOML in {path_or_resource}: {exc}") from None
 
 
-def _resolve(name_or_path: str | Path, folder, kind: str, names: list[str]):
+_NAMES = {"vehicle": vehicle_names, "tire": tire_names}
+
+
+@functools.cache
+def _by_lower(kind: str) -> dict[str, str]:
+    """{lower-case name: name} of the bundled presets of ``kind`` (fixed while the program
+    runs)."""
+    return {n.lower(): n for n in _NAMES[kind]()}
+
+
+def bundled_name(name: Any, kind: str = "vehicle") -> str | None:
+    """The bundled vehicle preset (``kind="vehicle"``) or tyre set (``"tire"``) that ``name``
+    names, in its own spelling (``"Dallara_AV21"`` -> ``"dallara_av21"``), else None.
+
+    The one name lookup of the loaders (:func:`load_vehicle`, :func:`load_tire`):
+    case-insensitive. It looks at names only: a loader reads a value naming an existing file
+    (or ending in ``.toml``) as that file first. Anything but a ``str`` or ``os.PathLike`` is
+    no name (None).
+    """
+    if kind not in _NAMES:
+        raise ValueError(f"kind = {kind!r}: must be one of {', '.join(_NAMES)}")
+    if not isinstance(name, (str, os.PathLike)):
+        return None
+    return _by_lower(kind).get(os.fspath(name).lower())
+
+
+def _resolve(name_or_path: str | Path, folder, kind: str):
+    """The file of ``name_or_path``: a path when it names an existing file or ends in
+    ``.toml`` (a missing one: the reader's "file not found"), else a bundled name
+    (:func:`bundled_name`)."""
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
+    if p.suffix == ".toml" or p.is_file():
         return p
-    by_lower = {n.lower(): n for n in names}
-    key = str(name_or_path).lower()
-    if key in by_lower:
-        return folder / f"{by_lower[key]}.toml"
-    raise ValueError(f"unknown {kind} {str(name_or_path)!r}; valid names: {', '.join(names)}")
+    name = bundled_name(name_or_path, kind)
+    if name is None:
+        raise ValueError(f"unknown {'tire set' if kind == 'tire' else kind} "
+                         f"{str(name_or_path)!r}; valid names: {', '.join(_NAMES[kind]())}")
+    return folder / f"{name}.toml"
 
 
 def _values(table: dict, cls, where: str) -> dict[str, Any]:
@@ -402,7 +434,7 @@ def _require(values: dict, cls, where: str, skip: tuple[str, ...]) -> None:
 
 def load_tire(name_or_path: str | Path) -> TireParams:
     """Load a tyre coefficient set: a bundled name (see :func:`tire_names`) or a TOML path."""
-    path = _resolve(name_or_path, _DATA / "tires", "tire set", tire_names())
+    path = _resolve(name_or_path, _DATA / "tires", "tire")
     doc = _read_toml(path, f"tire {name_or_path}")
     where = f"tire file {path}"
     coeffs = _values(doc.get("coefficients", {}), TireParams, where)
@@ -420,7 +452,7 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
     ``overrides`` replace parameters after loading (validated like the rest), e.g.
     ``load_vehicle("peugeot406", mass=1360.0)``.
     """
-    path = _resolve(name_or_path, _DATA, "vehicle", vehicle_names())
+    path = _resolve(name_or_path, _DATA, "vehicle")
     doc = _read_toml(path, f"vehicle {name_or_path}")
     where = f"vehicle file {path}"
     for key in ("name", "drive", "tire_front", "tire_rear", "params"):
