@@ -31,7 +31,8 @@ import warnings
 
 import numpy as np
 
-from flatfree.controllers.vehicle import flat_output_singular_speed, y2_per_r
+from flatfree.controllers.flatness import singular_speed
+from flatfree.controllers.vehicle import y2_per_r
 from flatfree.metrics import compute_metrics
 from flatfree.models.bicycle3dof import Bicycle3DoFParams
 from flatfree.scenarios import named_scenario, natural_settings
@@ -69,7 +70,7 @@ def window() -> None:
 def flat() -> None:
     car = load_vehicle("dallara_av21")
     b = Bicycle3DoFParams.from_vehicle(car)
-    v_star = flat_output_singular_speed(b)
+    v_star = singular_speed(b)
     print(f"dallara_av21: yaw index {b.iz / (b.m * b.lf * b.lr):.2f}, v* = {v_star:.2f} m/s")
     for name in ("recorded", "recorded-noise-free"):
         for controller in ("mfc-flat", "flatness"):
