@@ -350,11 +350,16 @@ def test_run_exit_code_1_when_the_run_does_not_complete(runner, tmp_path):
 def test_run_out_writes_files_and_round_trips_the_scenario(runner, tmp_path):
     out = tmp_path / "run1"
     res = _invoke(runner, ["run", "--controller", "mfc-flat", "--seed", "3", *SHORT,
-                           "--out", str(out)])
+                           "--out", str(out), "--csv"])
     assert res.exit_code in (0, 1)
     sc = load_scenario(out / "scenario.toml")
     assert sc.controller == "mfc-flat" and sc.seed == 3 and sc.timing.duration_s == 3.0
     tr = Trajectory.from_parquet(out / "trajectory.parquet")
+    # --csv: the same trajectory as CSV, every number exact
+    tc = Trajectory.from_csv(out / "trajectory.csv")
+    assert tc.status == tr.status and tc.names == tr.names
+    for k, v in tr.to_columns().items():
+        np.testing.assert_array_equal(tc.to_columns()[k], v)
     m = json.loads((out / "metrics.json").read_text())
     # the metrics file is the metrics of the written trajectory
     e = np.abs(tr["lateral_error"][tr.time >= tr.time[0] + sc.timing.startup_s])
@@ -364,6 +369,11 @@ def test_run_out_writes_files_and_round_trips_the_scenario(runner, tmp_path):
     for stem in ("fig4_paths", "fig5_errors", "fig6_inputs", "f_estimates", "track_map"):
         assert (out / "figures" / f"{stem}.png").is_file()
         assert (out / "figures" / f"{stem}.svg").is_file()
+
+
+def test_run_csv_needs_out(runner):
+    res = _invoke(runner, ["run", *SHORT, "--csv"])
+    assert res.exit_code == 2 and "--csv" in res.stderr and "--out" in res.stderr
 
 
 def test_run_recording_reports_steer_rms_against_the_recording(runner, tmp_path):

@@ -95,6 +95,15 @@ def test_noise_switch_keeps_rates_and_delays():
          ["line 1", "field fault", "missing keys t_start_s, duration_s"]),
         ('[[road.patch]]\ns_start_m = 10.0\ns_end_m = 20.0\n',
          ["line 1", "field road.patch", "missing key mu"]),
+        # an error in a second table of an array is reported at that table (it was the first's)
+        (('[[fault]]\nkind = "steer_limit"\nt_start_s = 1.0\nduration_s = 1.0\nvalue = 0.1\n'
+          '\n[[fault]]\nkind = "steer_limit"\nt_start_s = 2.0\nduration_s = -1.0\nvalue = 0.1\n'),
+         ["line 10", "field fault.duration_s ([[fault]] table 2)", "-1.0"]),
+        (('[[fault]]\nkind = "steer_limit"\nt_start_s = 1.0\nduration_s = 1.0\nvalue = 0.1\n'
+          '[[fault]]\nkind = "meteor"\n'), ["line 7", "fault.kind ([[fault]] table 2)"]),
+        (('[[road.patch]]\ns_start_m = 10.0\ns_end_m = 20.0\nmu = 0.5\n'
+          '[[road.patch]]\ns_start_m = 30.0\ns_end_m = 40.0\n'),
+         ["line 5", "field road.patch ([[road.patch]] table 2)", "missing key mu"]),
         ('seed = -3\n', ["line 1", "field seed", "-3"]),
         ('seed = 2.5\n', ["line 1", "field seed", "seed = 2.5: must be an integer >= 0"]),
         # a channel the loop does not measure (a table or a fault the run would never use)

@@ -441,6 +441,11 @@ def test_bad_arguments_raise_value_error(models):
         m.simulate(x0, np.zeros((10, 2)))
     with pytest.raises(ValueError, match="bank = 1.6 rad"):
         m.inputs(0.0, 0.0, bank=1.6)
+    for n in ("3", 2.5, 0, True):  # int() took the text and truncated the fraction
+        msg = f"^n = {re.escape(repr(n))}: must be an integer >= 1$"
+        with pytest.raises(ValueError, match=msg):
+            m.inputs(0.0, 0.0, n=n)
+    assert m.inputs(0.0, 0.0, n=3.0).shape == (3, 8)  # an integral float, as TOML has
     # the layout without the bank (6 entries) is a flat road, bit for bit
     u6 = m.inputs(500.0, 0.05, n=3)[:, :6]
     np.testing.assert_array_equal(m.simulate(x0, u6), m.simulate(x0, m.inputs(500.0, 0.05, n=3)))

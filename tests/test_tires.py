@@ -539,10 +539,16 @@ def test_other_bad_inputs_raise():
      "v_min = True m/s: expected real numbers, got dtype bool"),
     (lambda tire: fx0(0.1, 3000.0, tire, "1.0"),
      "mu_scale = '1.0': expected real numbers, got dtype <U3"),
+    # the one-tyre functions take one load and one friction scale: not text, not a list
     (lambda tire: cornering_stiffness(tire, 3000.0, mu_scale=True),
-     "mu_scale = True: expected real numbers, got dtype bool"),
+     "mu_scale = True: expected a real number"),
     (lambda tire: friction_coefficients(tire, 3000.0, mu_scale=[None]),
-     "mu_scale = [None]: expected real numbers, got dtype object"),
+     "mu_scale = [None]: expected a real number"),
+    (lambda tire: slip_stiffness(tire, 3000.0, mu_scale=np.array([1.0, 0.8])),
+     "mu_scale = array([1. , 0.8]): expected a real number"),
+    (lambda tire: cornering_stiffness(tire, "3000"), "fz = '3000' N: expected a real number"),
+    (lambda tire: friction_coefficients(tire, [3000.0]),
+     "fz = [3000.0] N: expected a real number"),
 ])
 def test_arrays_that_are_not_real_numbers_are_refused_by_name(call, msg):
     # float64 reads "1.0" and True as numbers and a None as a silent NaN: refused, by name

@@ -733,6 +733,9 @@ usage or input.""")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               help="Write scenario.toml, trajectory.parquet, metrics.json, figures and "
                    "report.html into this folder.")
+@click.option("--csv", "with_csv", is_flag=True,
+              help="With --out: also write trajectory.csv (one header line, 'name [unit]') "
+                   "and trajectory.csv.json (status, units, meta).")
 @click.option("--set", "settings", multiple=True, metavar="FIELD=VALUE",
               help="Set a scenario field by its dotted path, e.g. reference.j_lat_max=15, "
                    "sensors.y.markov_order=2, controller_settings.alpha_lat=40 (repeatable; "
@@ -740,7 +743,7 @@ usage or input.""")
 @click.option("--json", "as_json", is_flag=True,
               help="Print exactly one JSON object (metrics and settings) on stdout.")
 def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale, noise, seed,
-        duration_s, settings, out_dir, as_json) -> None:
+        duration_s, settings, out_dir, with_csv, as_json) -> None:
     """Run one closed-loop scenario and print its metrics.
 
     SCENARIO is a TOML file (see `flatfree scenario new`) or a named scenario (listed below);
@@ -750,6 +753,8 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult, format_table
 
+    if with_csv and out_dir is None:
+        raise _fail("--csv writes into the --out folder: give --out DIR too")
     if controller is not None:
         controller = controller.lower()
     sc = build_scenario(scenario_file, controller=controller, track=track,
@@ -776,6 +781,8 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         payload = _run_json(sc, tr, m, extra)
         if out_dir is not None:
             _write_run(out_dir, result, payload, reference(), rec)
+            if with_csv:
+                tr.to_csv(out_dir / "trajectory.csv")
     if as_json:
         click.echo(json.dumps(_round_times(payload)))
     else:

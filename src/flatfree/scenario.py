@@ -525,20 +525,25 @@ def scenario_to_toml(sc: Scenario) -> str:
     return tomli_w.dumps(doc)
 
 
-def _line_of(text: str, table: str | None, key: str | None) -> int | None:
-    """Line number (1-based) where ``key`` is set inside ``table`` (None: top level)."""
+def _line_of(text: str, table: str | None, key: str | None, index: int = 0) -> int | None:
+    """Line number (1-based) where ``key`` is set inside ``table`` (None: top level); in an
+    array of tables, inside its ``index``-th table (0-based)."""
     current: str | None = None
+    seen = 0 if table is None else -1  # the table's headers so far, minus one
     header = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
     assign = re.compile(r"^\s*([A-Za-z0-9_\-\"'.]+)\s*=")
     for i, line in enumerate(text.splitlines(), start=1):
         m = header.match(line)
         if m:
             current = m.group(1).strip()
-            if key is None and current == table:
-                return i
+            if current == table:
+                seen += 1
+                if key is None and seen == index:
+                    return i
             continue
         m = assign.match(line)
-        if m and key is not None and current == table and m.group(1).strip("\"'") == key:
+        if (m and key is not None and current == table and seen == index
+                and m.group(1).strip("\"'") == key):
             return i
     return None
 
@@ -559,11 +564,15 @@ class _Where:
         self.text = text
         self.source = source
 
-    def error(self, exc: Exception, table: str | None, key: str | None) -> ValueError:
-        line = _line_of(self.text, table, key) or _line_of(self.text, table, None)
+    def error(self, exc: Exception, table: str | None, key: str | None,
+              index: int | None = None) -> ValueError:
+        """``index``: the table's place (0-based) in an array of tables (``[[fault]]``)."""
+        line = (_line_of(self.text, table, key, index or 0)
+                or _line_of(self.text, table, None, index or 0))
         fld = key if table is None else f"{table}.{key}" if key else table
         at = f", line {line}" if line else ""
-        detail = f"field {fld}: {exc}"
+        which = f" ([[{table}]] table {index + 1})" if index is not None else ""
+        detail = f"field {fld}{which}: {exc}"
         return _FieldError(f"{self.source}{at}: {detail}", fld, detail)
 
     def tables(self, values: Any, name: str) -> list:
@@ -574,25 +583,31 @@ class _Where:
                              table or None, key)
         return values
 
-    def build(self, cls, table: str, values: Mapping[str, Any], prefix: str | None = None):
+    def build(self, cls, table: str, values: Mapping[str, Any], prefix: str | None = None,
+              index: int | None = None):
         prefix = prefix or table
         known = {f.name for f in dataclasses.fields(cls)}
         for key in values:
             if key not in known:
                 raise self.error(
                     ValueError(f"unknown key; valid keys: {', '.join(sorted(known))}"),
-                    prefix, key)
+                    prefix, key, index)
         missing = [f.name for f in dataclasses.fields(cls) if f.name not in values
                    and f.default is dataclasses.MISSING
                    and f.default_factory is dataclasses.MISSING]
         if missing:
             raise self.error(ValueError(f"missing key{'s' if len(missing) > 1 else ''} "
-                                        f"{', '.join(missing)}"), prefix, None)
+                                        f"{', '.join(missing)}"), prefix, None, index)
         try:
             return cls(**values)
         except (TypeError, ValueError) as exc:
             key = _field_in_message(str(exc), values)
-            raise self.error(exc, prefix, key) from None
+            raise self.error(exc, prefix, key, index) from None
+
+
+def _nth(i: int, tables: list) -> int | None:
+    """A table's place in its array for the messages: None when it is the only one."""
+    return i if len(tables) > 1 else None
 
 
 def _field_in_message(msg: str, values: Mapping[str, Any]) -> str | None:
@@ -659,16 +674,18 @@ def scenario_from_toml(text: str, source: str = "<scenario>", *,
     patches = where.tables(road.pop("patch", []), "road.patch")
     kwargs["road"] = where.build(RoadSpec, "road", {
         **road,
-        "patches": tuple(where.build(FrictionPatch, "road.patch", p) for p in patches),
+        "patches": tuple(where.build(FrictionPatch, "road.patch", p, index=_nth(i, patches))
+                         for i, p in enumerate(patches)),
     })
     faults = where.tables(doc.get("fault", []), "fault")
-    for f in faults:  # the kind first: it decides which other keys a fault needs
+    for i, f in enumerate(faults):  # the kind first: it decides which other keys a fault needs
         if "kind" in f:
             try:
                 _choice("fault.kind", f["kind"], FAULT_KINDS)
             except ValueError as exc:
-                raise where.error(exc, "fault", "kind") from None
-    kwargs["faults"] = tuple(where.build(Fault, "fault", f) for f in faults)
+                raise where.error(exc, "fault", "kind", _nth(i, faults)) from None
+    kwargs["faults"] = tuple(where.build(Fault, "fault", f, index=_nth(i, faults))
+                             for i, f in enumerate(faults))
     try:
         sc = Scenario(**kwargs)
     except (TypeError, ValueError) as exc:

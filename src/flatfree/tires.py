@@ -90,7 +90,7 @@ import numpy as np
 from numba import njit
 
 from flatfree import _vecmath as vm
-from flatfree._validate import real_array
+from flatfree._validate import real, real_array
 from flatfree.vehicles.params import TP, TireParams
 
 __all__ = [
@@ -653,10 +653,7 @@ def _check_tire(tire) -> None:
 
 
 def _check_scalar_load(fz: float) -> float:
-    try:
-        v = float(fz)
-    except (TypeError, ValueError):
-        raise ValueError(f"fz = {fz!r} N: expected a real number") from None
+    v = real("fz", fz, "N")
     if not (math.isfinite(v) and v > 0.0):
         raise ValueError(f"fz = {fz!r} N: must be finite and > 0")
     return v
@@ -706,7 +703,7 @@ def cornering_stiffness(tire: TireParams, fz: float, *, mu_scale: float = 1.0) -
     """
     _check_tire(tire)
     fz = _check_scalar_load(fz)
-    mu = float(_check_mu(mu_scale))
+    mu = float(_check_mu(real("mu_scale", mu_scale)))
     tp = tire.to_array()
     b, c, d, e0, sh, _sv, _mu = _lat_coeffs(fz, _dfz(fz, tp), mu, tp)
     e = min(e0 * (1.0 - tire.pey3 * float(np.sign(sh))), 1.0)  # 4.E24 at alpha_y = S_Hy
@@ -731,7 +728,7 @@ def slip_stiffness(tire: TireParams, fz: float, *, mu_scale: float = 1.0) -> flo
     """
     _check_tire(tire)
     fz = _check_scalar_load(fz)
-    mu = float(_check_mu(mu_scale))
+    mu = float(_check_mu(real("mu_scale", mu_scale)))
     tp = tire.to_array()
     b, c, d, e0, sh, _sv, _mu = _long_coeffs(fz, _dfz(fz, tp), mu, tp)
     e = min(e0 * (1.0 - tire.pex4 * float(np.sign(sh))), 1.0)  # 4.E14 at kappa_x = S_Hx
@@ -749,7 +746,7 @@ def friction_coefficients(
     """
     _check_tire(tire)
     fz = _check_scalar_load(fz)
-    mu = float(_check_mu(mu_scale))
+    mu = float(_check_mu(real("mu_scale", mu_scale)))
     tp = tire.to_array()
     dfz = _dfz(fz, tp)
     return abs(_long_coeffs(fz, dfz, mu, tp)[6]), abs(_lat_coeffs(fz, dfz, mu, tp)[6])

@@ -218,7 +218,7 @@ import numpy as np
 from numba import njit
 
 from flatfree import _vecmath as vm
-from flatfree._validate import finite, positive, real_array
+from flatfree._validate import finite, positive, real_array, whole
 from flatfree.tires import _lanes_g_plain as _mf_lanes_g_plain
 from flatfree.tires import _lanes_general as _mf_lanes_general
 from flatfree.tires import _mf_combined_lane, mf_combined, slip_speed, slip_stiffness
@@ -1131,7 +1131,7 @@ class TenDoF:
         if mu_a.ndim == 2:
             lengths.add(mu_a.shape[0])
         if n is not None:
-            lengths.add(int(n))
+            lengths.add(whole("n", n, 1))
         if len(lengths) > 1:
             raise ValueError(f"inputs: inconsistent lengths {sorted(lengths)}")
         shape = (NU,) if not lengths else (lengths.pop(), NU)
