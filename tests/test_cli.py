@@ -248,8 +248,9 @@ def test_run_json_is_one_object_with_the_keys(runner):
     # the bundled track's own spelling, not the option's
     assert doc["controller"] == "mfc-natural" and doc["track"] == "Norisring"
     assert doc["noise"] is False
-    assert res.exit_code == (0 if doc["status"] == "completed" else 1)
-    assert doc["duration_s"] == pytest.approx(3.0, abs=0.02) or doc["status"] != "completed"
+    # a deterministic run that completes: exit 0, the whole requested duration
+    assert doc["status"] == "completed" and res.exit_code == 0, res.output
+    assert doc["duration_s"] == pytest.approx(3.0, abs=0.02)
 
 
 def test_run_prints_times_rounded_and_writes_them_exact(runner, tmp_path):
@@ -351,7 +352,7 @@ def test_run_out_writes_files_and_round_trips_the_scenario(runner, tmp_path):
     out = tmp_path / "run1"
     res = _invoke(runner, ["run", "--controller", "mfc-flat", "--seed", "3", *SHORT,
                            "--out", str(out), "--csv"])
-    assert res.exit_code in (0, 1)
+    assert res.exit_code == 0, res.output  # seed 3 completes its 3 s
     sc = load_scenario(out / "scenario.toml")
     assert sc.controller == "mfc-flat" and sc.seed == 3 and sc.timing.duration_s == 3.0
     tr = Trajectory.from_parquet(out / "trajectory.parquet")
@@ -441,10 +442,8 @@ def test_demo_on_a_short_run_writes_report_and_figures(runner, tmp_path):
     rows = [r for r in ("flatness", "mfc-flat", "mfc-natural")
             if f'<tr class="run" data-controller="{r}">' in html]
     assert rows == ["flatness", "mfc-flat", "mfc-natural"]
-    if res.exit_code == 2:  # a controller the closed loop lacks: said, and still reported
-        assert "not every paper run could be made" in res.stderr
-    else:
-        assert res.exit_code == 0, res.output
+    assert res.exit_code == 0, res.output  # every paper run made
+    assert "not every paper run could be made" not in res.stderr
     for ctrl in ("flatness", "mfc-flat", "mfc-natural"):
         assert ctrl in res.stdout
     figs = out / "figures"
@@ -452,8 +451,7 @@ def test_demo_on_a_short_run_writes_report_and_figures(runner, tmp_path):
                  "track_map", "fig6_inputs"):
         assert (figs / f"{stem}.png").is_file(), stem
         assert (figs / f"{stem}.svg").is_file(), stem
-    if res.exit_code == 0:
-        assert (figs / "fig2_mismatch.png").is_file()
+    assert (figs / "fig2_mismatch.png").is_file()
     n_png = len(list(figs.glob("*.png")))
     assert html.count('src="data:image/png;base64,') == n_png
     # the library's warnings reach stderr once each and the report's notes (the recording's
@@ -482,8 +480,8 @@ def test_bench_quick_json(runner):
     doc = json.loads(res.stdout)
     for k in ("open_loop_10dof_real_time_factor", "open_loop_3dof_real_time_factor",
               "controller_step_ns", "closed_loop_mfc-natural_real_time_factor"):
-        assert doc[k] is None or doc[k] > 0.0, k
-    assert doc["open_loop_10dof_real_time_factor"] > 0.0
+        assert doc[k] > 0.0, k  # None: a run failed (a note says which)
+    assert "notes" not in doc, doc["notes"]
     assert doc["machine"]["cores"]
 
 
@@ -513,7 +511,7 @@ def test_run_on_a_users_track_csv(runner, tmp_path):
     res = _invoke(runner, ["run", "--track", str(f), "--no-noise", *SHORT, "--json"])
     doc = json.loads(res.stdout)
     assert doc["track"] == str(f)
-    assert res.exit_code == (0 if doc["status"] == "completed" else 1)
+    assert doc["status"] == "completed" and res.exit_code == 0, res.output
     bad = tmp_path / "bad.csv"
     bad.write_text("# x_m,y_m,w_tr_right_m,w_tr_left_m\n0,0,5,5\n1,0,5,5\n2,oops,5,5\n")
     res = _invoke(runner, ["run", "--track", str(bad), *SHORT])
@@ -613,7 +611,7 @@ def test_run_out_prints_the_steer_lock_warning_once(runner, tmp_path):
         warnings.simplefilter("always")
         res = _invoke(runner, ["run", "--vehicle", "dallara_av21", "--track", "Monza",
                                "--duration", "3", "--out", str(tmp_path / "o"), "--json"])
-    assert res.exit_code in (0, 1), res.output
+    assert res.exit_code == 0, res.output
     assert res.stderr.count("the reference's tightest curve") == 1, res.stderr
     assert res.stderr.startswith("warning: the reference's tightest curve (radius")
     assert [str(w.message) for w in caught] == []
@@ -704,7 +702,7 @@ def test_run_with_set_runs_the_changed_scenario(runner, tmp_path):
                            "--set", "reference.j_lat_max=15", "--set", "sensors.y.markov_order=2",
                            "--set", "seed=5", "--json", "--out", str(out)])
     doc = json.loads(res.stdout)
-    assert res.exit_code == (0 if doc["status"] == "completed" else 1)
+    assert doc["status"] == "completed" and res.exit_code == 0, res.output
     assert doc["seed"] == 5 and doc["scenario"] == "paper-imu"
     sc = load_scenario(out / "scenario.toml")
     assert sc.reference.j_lat_max == 15.0 and sc.sensors.channels["y"].markov_order == 2

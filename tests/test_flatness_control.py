@@ -234,7 +234,9 @@ def test_flat_reference_smoothing_spline_denoises():
 
     Noise 0.01 m/s on samples every 0.02 s: the interpolating spline differentiates the noise
     (measured max error 1.85 m/s^2 away from the ends); the GCV smoothing spline measured
-    0.020 m/s^2. We assert it is >= 10x better.
+    0.0205 m/s^2 (seed 5; 0.010-0.030 over seeds 0-19, median 0.019). We assert it is >= 10x
+    better, and below 0.04 m/s^2 absolute (2x the seed-5 figure, 1.35x the worst of 20 seeds):
+    the ratio alone let a smoothing spline 9x worse than the one measured pass.
     """
     rng = np.random.default_rng(5)
     t = np.arange(0.0, 10.0, 0.02)
@@ -248,6 +250,7 @@ def test_flat_reference_smoothing_spline_denoises():
     assert ref_s.method == "smoothing"
     e_s = np.abs(ref_s.y1_dot - exact)[inner].max()
     assert e_s < e_int / 10.0, (e_s, e_int)
+    assert e_s < 0.04, e_s
 
 
 def test_kinematic_y2dot_equals_the_model_closed_form_on_model_trajectories():
@@ -336,7 +339,9 @@ def test_closed_loop_tracks_a_feasible_curved_reference_exactly(rolling):
     -0.02 rad/s. Poles -2, -3 (speed), -4, -5, -6 (y2): the slowest mode e^{-2t} has decayed by
     e^{-24} ~ 4e-11 at 12 s. Measured at 12-20 s (both wheel modes): |e_vx| 1.6e-10 m/s,
     |e_vy| 2.1e-12 m/s, |e_r| 1.1e-12 rad/s, |e_y2| 5.3e-10 kg m^2/s (|y2_ref| up to 1.4e3),
-    |e_y2'| 1.1e-9 kg m^2/s^2: we assert the issue's 1e-6 in SI units on every one.
+    |e_y2'| 1.1e-9 kg m^2/s^2 (the same to 3 digits in both wheel modes). The issue's target
+    is 1e-6; asserted here at ~10x the measured figure of each (vx 1e-9 m/s, about 25 e^{-24}
+    times the 1 m/s start error; vy, r 2e-11; y2 5e-9; y2' 1e-8).
     """
     dt = 0.01
     t, x, _u, xd = feasible(P406, [20.0, 0.0, 0.0], dt, 2000, 300.0, 0.4, 0.03, 0.5,
@@ -348,11 +353,11 @@ def test_closed_loop_tracks_a_feasible_curved_reference_exactly(rolling):
     assert np.all(np.isfinite(out))
     assert np.all(out[:, 5] == FCS.ok)
     late = t >= 12.0
-    err = np.abs(out[late, :3] - x[late])
-    assert err.max(axis=0) == pytest.approx(0.0, abs=1e-6), err.max(axis=0)
+    err = np.abs(out[late, :3] - x[late]).max(axis=0)
+    assert np.all(err <= [1e-9, 2e-11, 2e-11]), err
     e_y2 = np.abs(y2_of(P406, out[late]) - ref.y2[late]).max()
     e_y2d = np.abs(out[late, 8] - ref.y2_dot[late]).max()
-    assert e_y2 < 1e-6 and e_y2d < 1e-6, (e_y2, e_y2d)
+    assert e_y2 < 5e-9 and e_y2d < 1e-8, (e_y2, e_y2d)
     # and the transient was real: the start error was 1 m/s
     assert np.abs(out[:10, 0] - x[:10, 0]).max() > 0.5
 
@@ -362,10 +367,12 @@ def test_closed_loop_errors_follow_the_designed_error_dynamics():
 
     Designed: (I1, e1)' = [[0, 1], [-K12, -K11]] (I1, e1) and (I2, e2, e2')' = companion
     matrix of s^3 + K21 s^2 + K22 s + K23, with I(0) = 0. The sampled loop deviates by O(dt)
-    (input held over dt, rectangle-rule integral): measured max deviation 1.35e-3 (e1, relative
-    to |e1(0)|) and 1.10e-3 (e2, relative to max|e2|) at dt = 1 ms; at dt = 2 ms 2.71e-3 and
-    2.19e-3 (first order in dt, ratio 2.0, checked below). Tolerance: 5 dt |p|max (0.03 at
-    1 ms), a first-order bound with margin; the ratio test (1.5-2.5) pins the order.
+    (input held over dt, rectangle-rule integral): measured max deviation 1.354e-3 (e1,
+    relative to |e1(0)|) and 1.095e-3 (e2, relative to max|e2|) at dt = 1 ms; at dt = 2 ms
+    2.714e-3 and 2.193e-3, at 0.5 ms 6.77e-4 and 5.47e-4: deviation / dt is 1.353-1.357 (e1)
+    and 1.094-1.096 (e2), a converged first-order coefficient. Tolerance 2.0 dt (1.5x / 1.8x
+    the measured; the former 5 dt |p|max = 30 dt let a 20x larger first-order error through);
+    the ratio test (measured 2.004 / 2.002; asserted 1.9-2.1) pins the order.
     """
     g = GAINS
     a1 = np.array([[0.0, 1.0], [-g.k12, -g.k11]])
@@ -386,9 +393,9 @@ def test_closed_loop_errors_follow_the_designed_error_dynamics():
         dev1 = np.abs(e1[::10] - d1).max() / abs(e1[0])
         dev2 = np.abs(e2[::10] - d2).max() / np.abs(d2).max()
         devs.append((dev1, dev2))
-        assert dev1 < 5 * dt * 6.0 and dev2 < 5 * dt * 6.0, devs
-    # first order in dt: doubling dt roughly doubles the deviation (1.5x-2.5x)
-    assert 1.5 < devs[1][0] / devs[0][0] < 2.5 and 1.5 < devs[1][1] / devs[0][1] < 2.5, devs
+        assert dev1 < 2.0 * dt and dev2 < 2.0 * dt, devs
+    # first order in dt: doubling dt doubles the deviation (measured 2.004 and 2.002)
+    assert 1.9 < devs[1][0] / devs[0][0] < 2.1 and 1.9 < devs[1][1] / devs[0][1] < 2.1, devs
 
 
 def test_mismatch_0p3_cf_cr_degrades_tracking():
@@ -475,9 +482,9 @@ def test_anti_windup_limits_the_overshoot_after_torque_saturation():
 
     With the applied inputs given and "clamp", the speed integral stops growing while the
     torque is saturated. Measured (406, constant-speed straight reference at 20 m/s): speed
-    overshoot 0.039 m/s (clamp) vs 2.35 m/s (none), peak |int e1| 0.044 m vs 5.2 m. We assert
-    the clamp's overshoot and peak integral are below a quarter of the unclamped ones (a
-    loose bound on a 50x measured difference: the point is the direction).
+    overshoot 0.039 m/s (clamp) vs 2.35 m/s (none), peak |int e1| 0.044 m vs 5.25 m: ratios
+    61x and 121x. We assert the clamp's overshoot and peak integral are below 1/20 of the
+    unclamped ones (3x and 6x margin on the measured ratios).
     """
     dt, n = 0.01, 1500
     t = np.arange(n) * dt
@@ -491,7 +498,7 @@ def test_anti_windup_limits_the_overshoot_after_torque_saturation():
         assert np.all(np.isfinite(out))
         res[aw] = (out[:, 0].max() - 20.0, np.abs(out[:, 6]).max())
         assert np.abs(out[-1, 0] - 20.0) < 1e-3  # both recover in 15 s
-    assert res["clamp"][0] < res["none"][0] / 4 and res["clamp"][1] < res["none"][1] / 4, res
+    assert res["clamp"][0] < res["none"][0] / 20 and res["clamp"][1] < res["none"][1] / 20, res
     assert res["none"][0] > 0.1, res  # the windup is real without the clamp
 
 
@@ -499,9 +506,16 @@ def test_anti_windup_limits_the_overshoot_after_torque_saturation():
 # the singular speed
 # ------------------------------------------------------------------------------------------
 def test_reference_through_the_singular_speed_is_refused_at_construction():
-    """dallara_av21 (Iz < lf lr m): vx* = 10.77 m/s; the controller runs above 1.5 vx*."""
+    """dallara_av21 (Iz < lf lr m): vx* = 10.77 m/s; the controller runs above 1.5 vx*.
+
+    vx* against the closed form of singular_speed's docstring, sqrt(C_r L (l_f l_r m - I_z))
+    / (l_f m) (NOTES.md), from the preset's parameters: the same arithmetic, so rounding only
+    (measured equal bit for bit; 1e-14 relative)."""
     vs = singular_speed(DALLARA)
-    assert vs == pytest.approx(10.7677, abs=1e-3)
+    p = DALLARA
+    assert p.lf * p.lr * p.m > p.iz  # yaw index < 1: a real singular speed
+    closed = math.sqrt(p.cr * (p.lf + p.lr) * (p.lf * p.lr * p.m - p.iz)) / (p.lf * p.m)
+    assert vs == pytest.approx(closed, rel=1e-14)
     fp = FlatnessControlParams(model=DALLARA, gains=GAINS, dt=0.01)
     assert fp.handover_speed == pytest.approx(safe_speed(DALLARA), rel=1e-15)
     t = np.linspace(0.0, 10.0, 101)

@@ -209,7 +209,9 @@ def test_imu_settings_refuse_bad_values():
 def test_own_loop_example_runs_and_tracks():
     """examples/own_loop.py, the documented reset()/step() use in a user's own loop (the
     10DoF model stepped from Python, flatfree's actuator model as the car's actuators): both
-    estimators hold the first 3 s of Norisring (measured: 0.99 cm algebraic, 0.03 cm imu)."""
+    estimators hold the first 3 s of Norisring (measured: 1.03 cm algebraic, 0.029 cm imu). The
+    imu bound, 0.1 cm, is 3.4x its measured figure (it was 0.5 cm, 17x); the algebraic one is
+    the issue's 2 cm."""
     import importlib.util
     from pathlib import Path
 
@@ -219,7 +221,7 @@ def test_own_loop_example_runs_and_tracks():
     spec.loader.exec_module(mod)
     alg = mod.run(MfcNaturalSettings(), 3.0)
     imu = mod.run(_imu(), 3.0)
-    assert alg["max_lateral_m"] < 0.02 and imu["max_lateral_m"] < 0.005
+    assert alg["max_lateral_m"] < 0.02 and imu["max_lateral_m"] < 0.001
     assert imu["max_lateral_m"] < alg["max_lateral_m"]
 
 
@@ -256,7 +258,11 @@ def test_accelerometer_bias_offset_and_its_observer_state(bias_wn):
     discrete observer settles at e-error (1 - 2 wo dt) b / wo^2 and e'-error 2 b / wo - b dt / 2
     (derived from its predict / correct steps) and F at +b, so the steer is off by
     -(b + kp (1 - 2 wo dt) b / wo^2 + kd (2 b / wo - b dt / 2)) / alpha; with the bias state
-    (``observer_bias_wn`` > 0) the offset vanishes (integral action on the innovation)."""
+    (``observer_bias_wn`` > 0) the offset vanishes (integral action on the innovation).
+
+    Measured residual against the closed form after 5 s: 5.0e-16 without the bias state
+    (rounding: tolerance 1e-14), 1.06e-12 with it (the bias state's transient, still decaying:
+    tolerance 1e-11, ~10x)."""
     s = _imu(observer_bias_wn=bias_wn)
     c = NaturalOutputController(dt=0.001, actuators=_ACT, settings=s)
     c.reset(steer0=0.01)
@@ -270,7 +276,7 @@ def test_accelerometer_bias_offset_and_its_observer_state(bias_wn):
     offset = 0.0 if bias_wn > 0.0 else -(b + kp * (1.0 - 2.0 * wo * dt) * b / wo**2
                                          + kd * (2.0 * b / wo - 0.5 * b * dt)) / s.alpha_lat
     assert abs(offset) > 0.01 or bias_wn > 0.0  # the effect is not small
-    assert out - exact == pytest.approx(offset, abs=1e-7)
+    assert out - exact == pytest.approx(offset, abs=1e-11 if bias_wn > 0.0 else 1e-14)
 
 
 def test_imu_holds_a_lap_at_a_100_hz_control_rate():

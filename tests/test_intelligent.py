@@ -262,8 +262,9 @@ def test_model_derivative_weights_exact_on_the_nu2_model():
         est = sum(wy[i] * ys[k - i] for i in range(n)) + alpha * sum(
             wu[j] * us[k - 1 - j] for j in range(n - 1)
         )
-        # exact to rounding: |v| ~ 1, weights ~ 1/(n dt)^1 -> error ~ 1e-13
-        assert est == pytest.approx(vs[k], abs=1e-9)
+        # exact to rounding: |v| ~ 1, weights ~ 1/(n dt); measured <= 4.0e-15 over the four
+        # windows: 1e-13 is 25x
+        assert est == pytest.approx(vs[k], abs=1e-13)
 
 
 def test_ip_error_obeys_the_exact_discrete_design_on_the_ultra_local_model():
@@ -277,11 +278,13 @@ def test_ip_error_obeys_the_exact_discrete_design_on_the_ultra_local_model():
         t = k * dt
         u = c.step(y, slope * t, slope)
         if c.status.window_full:
-            assert c.status.f_hat == pytest.approx(f0, abs=1e-9)  # exact estimator, rounding
+            # exact estimator: rounding only, measured <= 9.5e-15; 2e-13 is 20x
+            assert c.status.f_hat == pytest.approx(f0, abs=2e-13)
             errs.append(y - slope * t)
         y += (f0 + alpha * u) * dt
     errs = np.array(errs)
-    np.testing.assert_allclose(errs[1:], (1.0 - kp * dt) * errs[:-1], rtol=0, atol=1e-10)
+    # measured 2.2e-16 (|e| <= 1): 1e-14 is 45x
+    np.testing.assert_allclose(errs[1:], (1.0 - kp * dt) * errs[:-1], rtol=0, atol=1e-14)
 
 
 @settings(max_examples=30, deadline=None, derandomize=True)
@@ -304,8 +307,10 @@ def test_ip_exact_discrete_design_property(alpha, kp_dt, dt, window, f0, slope):
             errs.append(y - slope * k * dt)
         y += (f0 + alpha * u) * dt
     errs = np.array(errs)
-    # rounding: |F0| <= 10 and weights ~ 1/(window dt) up to 1e3 -> errors ~ 1e-10 in e
-    np.testing.assert_allclose(errs[1:], (1.0 - kp * dt) * errs[:-1], rtol=0, atol=1e-8)
+    # rounding: |F0| <= 10 and weights ~ 1/(window dt) up to 1e3, but the error in e is that of
+    # one step, dt (F_hat - F0): measured <= 4.0e-15 over 1500 random draws of these ranges
+    # (including the extremes dt = 1e-3, window 20, |F0| = 10, Kp dt = 0.5); 2e-13 is 50x
+    np.testing.assert_allclose(errs[1:], (1.0 - kp * dt) * errs[:-1], rtol=0, atol=2e-13)
 
 
 @pytest.mark.parametrize("derivative", ["model", "algebraic"])
@@ -326,7 +331,9 @@ def test_ipd_error_obeys_the_exact_discrete_design_on_the_ultra_local_model(deri
         r, rd, rdd = ref(t)
         u = c.step(y, r, rd, rdd)
         if c.status.window_full:
-            assert c.status.f_hat == pytest.approx(f0, abs=1e-8)
+            # rounding only (the nu = 2 weights ~ 1/(n dt)^2): measured <= 1.9e-13 with either
+            # derivative; 2e-12 is ~10x
+            assert c.status.f_hat == pytest.approx(f0, abs=2e-12)
             states.append((y - r, v - rd))
         acc = f0 + alpha * u
         y, v = y + v * dt + 0.5 * acc * dt * dt, v + acc * dt
@@ -334,7 +341,8 @@ def test_ipd_error_obeys_the_exact_discrete_design_on_the_ultra_local_model(deri
     ad = np.array([[1 - g.kp * dt**2 / 2, dt - g.kd * dt**2 / 2], [-g.kp * dt, 1 - g.kd * dt]])
     pred = x[:-1] @ ad.T
     if derivative == "model":
-        np.testing.assert_allclose(x[1:], pred, rtol=0, atol=1e-9)
+        # measured 3.1e-15 (|e|, |e'| <= 1): 1e-13 is 30x
+        np.testing.assert_allclose(x[1:], pred, rtol=0, atol=1e-13)
     else:
         assert np.abs(x[1:] - pred).max() > 1e-5
 
@@ -356,7 +364,8 @@ def test_estimator_fed_with_applied_input_under_saturation_and_rate_limit():
         st = c.status
         assert -1.0 <= u <= 0.5
         if st.window_full:
-            assert st.f_hat == pytest.approx(f0, abs=1e-9)
+            # rounding only: measured <= 2.1e-14; 5e-13 is ~25x
+            assert st.f_hat == pytest.approx(f0, abs=5e-13)
         n_sat += st.saturated != 0
         n_rate += st.rate_limited != 0
         y += (f0 + alpha * u) * dt
@@ -386,7 +395,7 @@ def test_set_applied_feeds_the_estimator_with_an_input_changed_after_the_control
             y += (f0 + alpha * ua) * dt
         errs[told] = worst
         assert clipped > 50
-    assert errs[True] < 1e-9
+    assert errs[True] < 5e-13  # rounding only: measured 1.8e-14
     assert errs[False] > 0.1
 
 
@@ -521,7 +530,9 @@ def test_dropout_prediction_keeps_the_estimate_exact_on_the_ultra_local_model(nu
         meas = float("nan") if 20 <= k < 23 else y
         u = c.step(meas, 0.5)
         if c.status.window_full and k >= 20:
-            assert c.status.f_hat == pytest.approx(f0, abs=1e-8)
+            # rounding only: measured <= 2.7e-15 (nu = 1) and 3.6e-13 (nu = 2, weights
+            # ~ 1/(n dt)^2): 5e-14 and 5e-12, ~15-20x
+            assert c.status.f_hat == pytest.approx(f0, abs=5e-14 if nu == 1 else 5e-12)
             n_checked += 1
         acc = f0 + alpha * u
         if nu == 1:
@@ -839,23 +850,39 @@ def _run_saturation(anti_windup: str, dt: float = 0.01, t_end: float = 7.0):
         t = k * dt
         r, rd = ref(t)
         u = c.step(y, r, rd)
-        out.append((t, y - r, c.status.saturated, c.status.integral))
+        st = c.status
+        out.append((t, y - r, st.saturated, st.integral, y, r, rd, u, st.f_hat))
         y = y * ed + 1.5 * u * (1.0 - ed)
     return np.array(out), g
 
 
 def test_saturation_integral_does_not_wind_up():
+    """After release the error follows the designed iPI dynamics from its state at release
+    (the frozen integral only adds the designed slow mode, pole -2 /s), within the bound the
+    error equation implies, at every sample, as in the cubic-plant test: the sampling's share
+    ``|e_free - e_design|`` (the sampled design from ``(I_{k-1}, e_k)`` at release) plus the
+    run's own F estimation error through ``|h|`` (:func:`excursion_envelope`). No limit binds
+    after release, so the identity of :func:`sampled_error_model` holds there (it reproduces
+    the run's errors to 6e-17). Measured: max deviation 0.00280 (at 0.21 s after release)
+    against a bound peaking at 0.00288 (sampling 0.00093, estimation 0.00218), reached to 97 %
+    at that sample; the former fixed 0.05 was 18x the deviation. A wound-up integral (anti-
+    windup "none") starts from a wrong I and fails the recovery check below."""
     o, g = _run_saturation("clamp")
     sat = np.nonzero(o[:, 2])[0]
     assert o[sat[0], 0] < 1.0 and o[sat[-1], 0] > 3.0  # the limit did bind for > 2 s
     k_rel = sat[-1] + 1  # first unsaturated sample after the long saturation
     t_rel = o[k_rel, 0]
-    # after release the error follows the designed iPI dynamics from its state at release:
-    # the frozen integral only adds the designed slow mode (pole -2 /s).
     amat = np.array([[0.0, 1.0], [-g.ki, -g.kp]])
     tt = o[k_rel:, 0] - t_rel
     e_design = designed_error(amat, np.array([o[k_rel, 3], o[k_rel, 1]]), tt, 1)
-    assert np.abs(o[k_rel:, 1] - e_design).max() <= 0.05  # 2.5 % of the 2.0 reference swing
+    y, r, rd, u, f_hat = o[k_rel:, 4:9].T
+    e = y - r
+    a, inputs, c_row = sampled_error_model(1, g.kp, g.ki, 0.0, 0.01)
+    # z_k = (I_{k-1}, e_k): the integral the controller carries into the release step
+    e_free = free_error(a, c_row, np.array([o[k_rel - 1, 3], e[0]]), e.size)
+    d = nu1_disturbance(y, r, rd, u, f_hat, 2.0, 0.01)
+    bound = np.abs(e_free - e_design) + excursion_envelope(a, inputs, c_row, [d])
+    assert_within(np.abs(e - e_design), bound)
     # stated recovery: |e| <= 0.02 (1 % of the swing) from 1.5 s after release on
     late = o[:, 0] >= t_rel + 1.5
     assert np.abs(o[late, 1]).max() <= 0.02
@@ -915,27 +942,52 @@ def _alpha_run(ratio: float, estimator: str, window: int, b: float = 3.0, dt: fl
 #: threshold classifies with a factor 4 to 9 either side, it is not fitted to a value.
 TRACKS = 0.05
 
-#: The table of the module docstring ("Stable range of alpha"), alpha/b: (max|e|, decimals
-#: printed). Checked at its printed precision: a record of these runs, not a correctness bound
-#: (a change of the controller that moves a figure must update the docstring).
-ALPHA_TABLE = {0.24: (0.006, 3), 0.26: (0.006, 3), 0.3: (0.006, 3), 0.5: (0.006, 3),
-               1.0: (0.007, 3), 2.0: (0.020, 3), 5.0: (0.062, 3), 10.0: (0.14, 2),
-               20.0: (0.34, 2), 30.0: (0.58, 2), 50.0: (1.0, 1)}
+def _docstring_alpha_table() -> list[tuple[float, float, str]]:
+    """The table of the module docstring ("Stable range of alpha"): rows ``(lo, hi, max|e|)``,
+    ``lo == hi`` unless a column names a range ("0.24-0.5"), the figure as printed (its
+    decimals are the precision the docstring claims)."""
+    import flatfree.controllers.intelligent as mod
+
+    head = re.search(r"^\s*alpha/b\s+(.+)$", mod.__doc__, re.M)
+    vals = re.search(r"^\s*max\|e\|\s+(.+)$", mod.__doc__, re.M)
+    assert head and vals, "the module docstring lost its alpha table"
+    cols, figs = head.group(1).split(), vals.group(1).split()
+    assert len(cols) == len(figs) >= 5
+    rows = []
+    for col, fig in zip(cols, figs, strict=True):
+        lo, _, hi = col.partition("-")
+        rows.append((float(lo), float(hi or lo), fig))
+    return rows
 
 
 def test_alpha_sweep_records_the_stable_range():
     """The claims of the module docstring ("Stable range of alpha"), run here: bounded from
-    alpha/b = 0.24 to 50, diverged at 0.2, a growing oscillation at 0.22, the table's errors;
-    the edge at window 5 (between 0.24 and 0.28: about 0.26) and below 0.2 at window 20; the
-    simple variant's edges. Every finite run also meets the error equation's derived bound."""
-    ratios = [0.2, 0.22, *ALPHA_TABLE]
+    alpha/b = 0.24 to 50, diverged at 0.2, a growing oscillation at 0.22; the edge at window 5
+    (between 0.24 and 0.28: about 0.26) and below 0.2 at window 20; the simple variant's edges
+    (window 2: the closed-form alpha/b > 1/2). Every finite run also meets the error equation's
+    derived bound (``excess <= 0``: that, and the divergence / tracking classification, are the
+    correctness checks).
+
+    The docstring's table of worst errors is the controller's own output on these runs, not a
+    derived figure: it is not a reference here. What is checked is that the docstring states
+    what the runs give, at the precision it prints (parsed from the docstring, not copied into
+    the test): a change of the controller that moves a figure fails until the docstring is
+    updated."""
+    table = _docstring_alpha_table()
+    # the ratios the docstring names, plus two inside its "0.24-0.5" range
+    in_range = {lo for lo, _, _ in table} | {hi for _, hi, _ in table} | {0.26, 0.3}
+    ratios = sorted({0.2, 0.22, *in_range})
     runs = {r: _alpha_run(r, "algebraic", 10) for r in ratios}
     for r, run in runs.items():
         if math.isfinite(run.worst):
             assert run.excess <= 0.0, (r, run)
-    for r, (value, decimals) in ALPHA_TABLE.items():
-        run = runs[r]
-        assert math.isfinite(run.worst) and round(run.worst, decimals) == value, (r, run)
+    for r in in_range:
+        assert math.isfinite(runs[r].worst), (r, runs[r])  # "bounded from 0.24 to 50"
+    for lo, hi, fig in table:  # docstring consistency, at its printed precision
+        decimals = len(fig.partition(".")[2])
+        for r, run in runs.items():
+            if lo <= r <= hi:
+                assert round(run.worst, decimals) == float(fig), (r, fig, run)
     # the lower edge: diverges at 0.2; at 0.22 an oscillation that grows every quarter and ends
     # well outside tracking (measured quarters 0.030, 0.071, 0.18, 0.45)
     assert runs[0.2].worst == math.inf
@@ -956,15 +1008,21 @@ def test_alpha_sweep_records_the_stable_range():
         run = _alpha_run(r, "simple", 2)
         assert run.worst <= TRACKS and run.excess <= 0.0, (r, run)
     # mixed with a windowed derivative the simple variant diverges even at alpha = b (and at 2);
-    # it tracks from alpha/b = 3 on (measured 0.006), 0.05 at 20 (the docstring's figure),
-    # better than the algebraic estimator's 0.34 there
+    # it tracks from alpha/b = 3 on (measured 0.006) and at 20 does better than the algebraic
+    # estimator there (the docstring's claim); the docstring prints its figure at 20 ("0.05 at
+    # 20"): checked, as the table above, to state what the run gives
     assert _alpha_run(1.0, "simple", 10).worst == math.inf
     assert _alpha_run(2.0, "simple", 10).worst == math.inf
     run = _alpha_run(3.0, "simple", 10)
     assert run.worst <= TRACKS and run.excess <= 0.0, run
     run = _alpha_run(20.0, "simple", 10)
     assert run.excess <= 0.0, run
-    assert round(run.worst, 2) == 0.05 and run.worst < runs[20.0].worst
+    assert run.worst < runs[20.0].worst
+    import flatfree.controllers.intelligent as mod
+
+    stated = re.search(r"\((\d+\.\d+) at 20:", mod.__doc__)
+    assert stated, "the module docstring lost the simple variant's figure at alpha/b = 20"
+    assert round(run.worst, len(stated.group(1).split(".")[1])) == float(stated.group(1)), run
 
 
 # ------------------------------------------------------------------------------------------

@@ -124,12 +124,16 @@ _TIRE_COEFFS = [
 
 
 def test_peugeot406_estimates_match_the_reference_sheet():
-    """VEHICLE_MODEL.md 4.2: K_phi front/rear 38,600 / 25,700 N m/rad, yaw index 1.0, 60% front."""
+    """VEHICLE_MODEL.md 4.2: K_phi front/rear 38,600 / 25,700 N m/rad, yaw index 1.0, 60% front.
+
+    The sheet rounds K_phi to 100 N m/rad, so the exact value lies within half of that: abs=50
+    (as test_bicycle3dof does for C_f / C_r); rel=5e-3 allowed ~190 N m/rad. The data give
+    38,563 / 25,668 N m/rad (37 / 32 off the sheet)."""
     v = load_vehicle("peugeot406")
     k_phi_f = v.spring_front * v.track_front**2 / 2 + v.arb_front
     k_phi_r = v.spring_rear * v.track_rear**2 / 2 + v.arb_rear
-    assert k_phi_f == pytest.approx(38_600, rel=5e-3)
-    assert k_phi_r == pytest.approx(25_700, rel=5e-3)
+    assert k_phi_f == pytest.approx(38_600, abs=50.0)
+    assert k_phi_r == pytest.approx(25_700, abs=50.0)
     assert v.yaw_index == pytest.approx(1.0, abs=0.01)
     assert v.static_axle_loads[0] / (v.mass * G) == pytest.approx(0.60, abs=1e-9)
     assert v.wheelbase == 2.70 and v.drive == "front"

@@ -114,8 +114,9 @@ def test_f_estimates_of_different_units_get_their_own_axis(ax):
 
 def test_paths_zoom_on_the_worst_corner(ax):
     runs = {"a": _traj(1, worst_at=6.0), "b": _traj(2, worst_at=3.0)}
-    # the start-up interval is excluded: a huge error at t = 0.2 s must not be chosen
-    assert pl.worst_point(runs, startup_s=1.0) in (("a", 300), ("b", 150))
+    # the peaks: a 0.3 + 0.01 sin(19) = 0.3015 m at sample 300 (t = 6 s), b 0.3 + 0.01 sin(11)
+    # = 0.2900 m at sample 150 (the start-up: test_worst_point_ignores_startup_and_missing_signals)
+    assert pl.worst_point(runs, startup_s=1.0) == ("a", 300)
     ref = (40.0 * np.sin(np.linspace(0, 3, 50)), 40.0 * (1 - np.cos(np.linspace(0, 3, 50))))
     pl.plot_paths(ax, runs, reference=ref, zoom_half_width_m=10.0)
     assert _lines(ax, "reference") and _lines(ax, "a") and _lines(ax, "b")
@@ -196,15 +197,16 @@ def test_save_figure_writes_png_and_svg(tmp_path, ax):
 def test_figure3_small_turn_matches_the_static_load_stiffness():
     """At 0.5 m/s^2 the axles' Fy/alpha is the tyres' cornering stiffness at static load.
 
-    Tolerance 2 %: the lateral load transfer at 0.5 m/s^2 moves about 5 % of a wheel's load
+    Tolerance 1 %: the lateral load transfer at 0.5 m/s^2 moves about 5 % of a wheel's load
     from the inner to the outer wheel, which changes the axle's stiffness only to second order
-    (< 0.5 %); the cruise drive torque's combined-slip reduction is smaller still.
+    (< 0.5 %; measured 0.34 %); the cruise drive torque's combined-slip reduction is smaller
+    still.
     """
     d = pl.braking_in_turn(ay_mps2=0.5, duration_s=3.0, t_brake_s=10.0, brake_duration_s=1.0)
     late = d["t"] >= 2.0  # the yaw transient of the step steer has settled
     assert not d["brake"].any()
-    assert np.nanmean(d["c_front"][late]) == pytest.approx(d["cf_nominal"], rel=0.02)
-    assert np.nanmean(d["c_rear"][late]) == pytest.approx(d["cr_nominal"], rel=0.02)
+    assert np.nanmean(d["c_front"][late]) == pytest.approx(d["cf_nominal"], rel=0.01)
+    assert np.nanmean(d["c_rear"][late]) == pytest.approx(d["cr_nominal"], rel=0.01)
 
 
 def test_figure3_braking_moves_stiffness_from_the_rear_to_the_front(ax):

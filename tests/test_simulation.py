@@ -50,7 +50,8 @@ def test_same_seed_bit_identical_other_seed_different():
     assert not np.array_equal(a["meas_vx"], c["meas_vx"])
     # the noise is what differs: the measured speed error's spread is the sensor's sigma
     dv = a["meas_vx"][1:] - a["vx"][1:]
-    assert np.std(dv) == pytest.approx(0.05, rel=0.2)  # 400 samples: sampling spread ~4 %
+    sigma = NOISY.channels["vx"].noise_std
+    assert np.std(dv) == pytest.approx(sigma, rel=0.2)  # 400 samples: sampling spread ~4 %
 
 
 def test_noise_switch_gives_exact_measurements():
@@ -75,7 +76,9 @@ def test_the_real_time_factor_leaves_out_the_compiler(tmp_path):
     """A cold numba cache (a fresh clone) compiles the loop for seconds on its first run: that
     happens before the clock starts, and the timed run compiles nothing (a fresh interpreter
     with an empty cache directory, so the compilation really happens there): the first call
-    adds exactly the one signature it compiles before timing, the second none."""
+    adds exactly the one signature it compiles before timing, the second none, and the timed
+    run takes a small part of the compile time (with the compiler inside the clock it would take
+    all of it: measured 0.6 ms against 12.7 s of compiling, cold)."""
     code = ("import json\n"
             "from flatfree import simulation\n"
             "from flatfree.scenarios import named_scenario\n"
@@ -84,7 +87,7 @@ def test_the_real_time_factor_leaves_out_the_compiler(tmp_path):
             "    n0 = len(simulation._closed_loop.signatures)\n"
             "    m = simulation.simulate(named_scenario('paper-noise-free', duration_s=0.2)).meta\n"
             "    out.append([len(simulation._closed_loop.signatures) - n0, m['compile_time_s'],"
-            " m['real_time_factor']])\n"
+            " m['real_time_factor'], m['wall_time_s']])\n"
             "print(json.dumps(out))\n")
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -92,6 +95,7 @@ def test_the_real_time_factor_leaves_out_the_compiler(tmp_path):
     first, second = json.loads(out.stdout.strip().splitlines()[-1])
     assert first[0] == 1 and second[0] == 0
     assert first[1] > 0.0 and first[2] > 0.0
+    assert first[3] < 0.1 * first[1], first  # the compiling is outside wall_time_s
 
 
 def test_a_run_too_long_for_the_memory_is_a_value_error():
@@ -341,9 +345,9 @@ def test_flatness_runs_in_the_loop_and_plans_with_its_own_model():
     tr = simulate(exact)
     assert tr.status is Status.COMPLETED and _finite(tr)
     # exact model on a gentle profile: the speed loop (PI, poles -2, -3) tracks; measured
-    # 0.009 m/s RMS after 1 s while the reference brakes at up to 6 m/s^2 (an open speed loop
-    # would be metres per second off); 0.1 m/s leaves room for plant changes
-    assert np.sqrt(np.mean((tr["vx"] - tr["vx_ref"])[100:] ** 2)) < 0.1
+    # 0.0099 m/s RMS after 1 s while the reference brakes at up to 6 m/s^2 (an open speed loop
+    # would be metres per second off): bound 2x that
+    assert np.sqrt(np.mean((tr["vx"] - tr["vx_ref"])[100:] ** 2)) < 0.02
 
 
 class _NaturalDoor:
@@ -820,8 +824,8 @@ def test_natural_output_controller_overflow_raises_and_nan_measurements_do_not()
     from flatfree.controllers.vehicle import NaturalOutputController
     from flatfree.vehicles import load_vehicle
 
-    c = NaturalOutputController(dt=0.001,
-                                actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")))
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    c = NaturalOutputController(dt=0.001, actuators=act)
     base = dict(vx=20.0, r=0.0, e_y=0.01, kappa=0.0, vx_ref=20.0)
     for _ in range(150):
         last = c.step(**base)
@@ -830,7 +834,7 @@ def test_natural_output_controller_overflow_raises_and_nan_measurements_do_not()
             tw, delta = c.step(**{**base, name: bad})
             assert math.isfinite(tw) and math.isfinite(delta), (name, bad)
     last = c.step(**{**base, "vx": 1e308})
-    assert last[0] == -6000.0  # -inf from F_hat = +inf, clipped at the torque limit
+    assert last[0] == -act.max_brake_torque  # -inf from F_hat = +inf, clipped at the limit
     with pytest.raises(ValueError, match=r"NaturalOutputController\.step\(vx = 1e\+308, r = 0\.0"
                                          r".*: the command torque = nan is not finite.*"
                                          r"controller was reset \(reset\(steer0="):

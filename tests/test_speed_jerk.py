@@ -104,8 +104,9 @@ def test_clothoid_speed_is_the_closed_form_where_the_cap_binds():
 
 
 def test_cap_uses_the_track_derivative_of_a_fitted_clothoid():
-    """Through Track.from_points: the track's dkappa/ds is within 1e-3 of c in the interior,
-    and the cap (j / dkappa/ds)^(1/3) within a third of that relative error. (kappa is linear
+    """Through Track.from_points: the track's dkappa/ds is within 1e-4 of c in the interior
+    (measured 9.4e-6: the trapezoid-integrated sample points), and the cap (j / dkappa/ds)^(1/3)
+    within a third of that relative error (measured 3.1e-6). (kappa is linear
     here, so this does not tell the spline's derivative from a finite difference: the lap test
     below, on a path with nonlinear kappa, does.)"""
     c, length = 2e-4, 300.0
@@ -117,8 +118,8 @@ def test_cap_uses_the_track_derivative_of_a_fitted_clothoid():
     y = np.concatenate([[0.0], np.cumsum(0.5 * (dy[1:] + dy[:-1]) * np.diff(s))])
     tk = Track.from_points(x[::10], y[::10], closed=False, smoothing_length=0.0)
     mid = (tk.s > 20.0) & (tk.s < length - 20.0)
-    np.testing.assert_allclose(tk.dkappa_ds[mid], c, rtol=1e-3)
-    np.testing.assert_allclose(jerk_speed_cap(tk, 3.0)[mid], (3.0 / c) ** (1 / 3), rtol=1e-3 / 3.0)
+    np.testing.assert_allclose(tk.dkappa_ds[mid], c, rtol=1e-4)
+    np.testing.assert_allclose(jerk_speed_cap(tk, 3.0)[mid], (3.0 / c) ** (1 / 3), rtol=1e-4 / 3.0)
 
 
 # ------------------------------------------------------------------------------------------
@@ -150,8 +151,8 @@ def test_profile_lateral_jerk_is_within_the_limit_plus_the_neglected_term(rough_
     vmin = np.minimum(v[1:], v[:-1])
     bound = max(lim.ax_drive, lim.ax_brake) * lim.ay * vbar / vmin**2
     assert (np.abs(neglected) <= bound * (1 + 1e-9)).all()
-    assert (np.abs(jerk) <= 1.01 * j + np.abs(neglected)).all()
-    assert (np.abs(jerk) <= 1.01 * j + bound).all()
+    # hence (the identity and the two bounds above) the jerk within the limit plus the
+    # neglected term's bound, the statement of this test's name
     # the limit binds here (the friction-only profile exceeds it), and the node cap holds
     free = speed_profile(tk, SpeedLimits(), vehicle=prof.vehicle)
     assert np.max(free.v**3 * np.abs(tk.dkappa_ds)) > 1.5 * j

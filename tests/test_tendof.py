@@ -47,7 +47,7 @@ def test_rest_is_an_exact_equilibrium_with_static_loads(models, name):
     """At rest with zero input every derivative is 0 and F_z = m g l_r/(2L), m g l_f/(2L).
 
     Reference: moment balance of the rigid car at rest (VEHICLE_MODEL.md 5.1). Tolerance
-    1e-9 relative: only rounding of a few additions separates the two.
+    1e-12 relative: only rounding of a few additions separates the two (measured <= 2.2e-16).
     """
     m = models[name]
     vp = m.vehicle
@@ -66,8 +66,9 @@ def test_downforce_is_carried_by_the_wheels_at_speed(models):
     """Dallara at 50 m/s, coasting: sum F_z = m g - 1/2 rho (C_L,f + C_L,r) A v^2 (VM 5.1).
 
     After 3 s the heave and pitch have settled (ride 2-3 Hz, damped); the speed drifts by
-    drag, so the reference is evaluated at the final speed. Tolerance 0.5 %: the residual
-    heave/pitch motion after 3 s.
+    drag, so the reference is evaluated at the final speed. Measured: -7.5e-5 relative (the
+    residual heave/pitch motion after 3 s); tolerance 5e-4, while the downforce is > 25 % of
+    the load.
     """
     m = models["dallara_av21"]
     vp = m.vehicle
@@ -77,7 +78,7 @@ def test_downforce_is_carried_by_the_wheels_at_speed(models):
     v = xs[-1, S.vx]
     ref = vp.mass * G - 0.5 * vp.air_density * (vp.lift_area_front + vp.lift_area_rear) * v**2
     assert ref > 1.25 * vp.mass * G  # real downforce at this speed, so the check has teeth
-    np.testing.assert_allclose(d["fz"].sum(), ref, rtol=5e-3)
+    np.testing.assert_allclose(d["fz"].sum(), ref, rtol=5e-4)
     assert xs[-1, S.heave] < 0.0  # downforce compresses the suspension
 
 
@@ -192,9 +193,10 @@ def test_solve_ivp_and_compiled_rk4_agree(models):
     """The Python-callable rhs under RK45 (rtol = atol = 1e-10) and RK4 at 1 ms: same path.
 
     peugeot406, 20 m/s, drive 300 N m and 0.03 rad steer for 2 s (a_y ~ 4 m/s^2). The RK4
-    global error at 1 ms is ~1e-9 relative here (see the order test), RK45's ~1e-9: tolerance
-    1e-6 relative to each state's range (1e-6 rad/s on r), far below any physical effect
-    and far above both integration errors.
+    global error at 1 ms is ~1e-9 relative here (see the order test; measured 2.7e-9), RK45's
+    ~1e-9: tolerance 1e-8 relative to each state's range. A zero-order hold of a steer ramp:
+    the hold switches inside RK45 steps, max_step = dt bounds that error (measured 3.6e-7 of
+    each state's range over the run, wheel slip rl the largest): tolerance 1e-5 per state.
     """
     m = models["peugeot406"]
     x0 = m.initial_state(20.0)
@@ -206,16 +208,16 @@ def test_solve_ivp_and_compiled_rk4_agree(models):
     xs = m.simulate(x0, np.tile(u, (2000, 1)), 1e-3)[::100]
     scale = np.maximum(np.abs(sol.y.T).max(axis=0), 1e-3)
     err = np.max(np.abs(xs - sol.y.T) / scale)
-    assert err < 1e-6
+    assert err < 1e-8, err
     # the same function with a time-varying input: a zero-order hold of a steer ramp
     seq = m.inputs(0.0, np.linspace(0.0, 0.04, 500))
     fun = m.ivp_rhs(lambda t: seq[min(int(t / 1e-3), 499)])
     sol2 = solve_ivp(fun, (0.0, 0.5), x0, method="RK45", rtol=1e-10, atol=1e-10,
                      t_eval=[0.5], max_step=1e-3)
     xs2 = m.simulate(x0, seq, 1e-3)
-    # the hold switches inside RK45 steps; max_step = dt bounds that error (about 1e-5 rel.)
-    np.testing.assert_allclose(sol2.y[:, -1], xs2[-1], rtol=0.0,
-                               atol=1e-4 * np.maximum(np.abs(xs2[-1]), 1.0).max())
+    scale2 = np.maximum(np.abs(xs2).max(axis=0), 1e-3)  # each state's range over the run
+    err2 = np.abs(sol2.y[:, -1] - xs2[-1]) / scale2
+    assert err2.max() < 1e-5, err2
     # a callable giving the 6 flat-road entries is completed as a constant input is
     fun6 = m.ivp_rhs(lambda t: seq[min(int(t / 1e-3), 499)][:6])
     np.testing.assert_array_equal(fun6(0.25, x0), fun(0.25, x0))
@@ -307,8 +309,16 @@ def test_launch_from_standstill_to_20_mps_and_stop(models, name):
     m_eff = m + sum I_w / R^2 and c = 1/2 rho C_d A (VEHICLE_MODEL.md 5.6), in closed form:
     - launch, F = T/R: t(20 m/s) = m_eff / sqrt(F' c) atanh(20 sqrt(c / F')), F' = F - f_r m g;
     - stop, F = |T|/R: s = m_eff / (2 c) ln(1 + c v0^2 / F'), F' = F + f_r m g.
-    Tolerance 2 %: the balance ignores the tyre slip (|kappa| < 0.03, the wheels turn slower
-    than the car under braking) and the smooth signs below 1 m/s (launch 9 s, stop 4.5 s).
+    What the balance ignores, measured (bmw320i / peugeot406): the driven wheels turn faster
+    than the car by the drive slip kappa = 0.023 / 0.022, so they spin up (1 + kappa) times as
+    fast as rolling wheels would: the launch time is 5.0e-4 / 2.1e-4 too long (kappa times the
+    driven wheels' share of m_eff, 2.5 % / 1.2 %, predicts 5.7e-4 / 2.6e-4); tolerance 2e-3.
+    The stopping distance is 2.4e-3 / 2.0e-3 too long: 0.15 m / 0.09 m accrue within the first
+    20 ms (the brake step reverses the tyre slip through the wheel spin and the 0.2 m
+    relaxation length), the rest comes from the braking slip (|kappa| < 0.04) and the smooth
+    signs below 1 m/s; tolerance 5e-3. Both are well below the wheel-inertia term (dropping it
+    from m_eff: 5.3 % / 2.5 % on the time, 5.5 % / 2.7 % on the distance), which the test thus
+    sees. (Launch 9 s, stop 4.1 s.)
     Plus: no NaN, no wheel spin or lock (|Omega R - vx| < 1.5 m/s), wheels never turn
     backwards by more than 0.1 rad/s, the car ends at rest (|vx| < 1 cm/s) and stays there.
     """
@@ -326,7 +336,7 @@ def test_launch_from_standstill_to_20_mps_and_stop(models, name):
     assert k20 > 0
     f_net = t_drive / r_e - f0
     t20 = meff / math.sqrt(f_net * c) * math.atanh(20.0 * math.sqrt(c / f_net))
-    assert k20 * 1e-3 == pytest.approx(t20, rel=0.02)
+    assert k20 * 1e-3 == pytest.approx(t20, rel=2e-3)
     x20 = xs[k20]
     ys = m.simulate(x20, m.inputs(t_brake, 0.0, n=8000))
     v = ys[:, S.vx]
@@ -334,7 +344,7 @@ def test_launch_from_standstill_to_20_mps_and_stop(models, name):
     k0 = int(np.argmax(v < 0.01))
     f_b = -t_brake / r_e + f0
     s_ref = meff / (2.0 * c) * math.log(1.0 + c * x20[S.vx] ** 2 / f_b)
-    assert ys[k0, S.x] - x20[S.x] == pytest.approx(s_ref, rel=0.02)
+    assert ys[k0, S.x] - x20[S.x] == pytest.approx(s_ref, rel=5e-3)
     for traj in (xs[: k20 + 1], ys):
         slip = traj[:, WHEELS] * r_e - traj[:, [S.vx]]
         assert np.max(np.abs(slip)) < 1.5
@@ -417,8 +427,12 @@ def test_layouts_and_params():
     assert [w.name for w in Wheel] == ["fl", "fr", "rl", "rr"]
     m = TenDoF(load_vehicle("bmw320i"))
     assert m.params.shape == (len(MP),)
-    # sprung CoG height from m h = m_s h_s + m_u R_e; CommonRoad's own h_s is 0.61373 m
-    assert m.params[MP.h_s] == pytest.approx(0.6054, abs=1e-3)
+    # sprung CoG height from m h = m_s h_s + m_u R_e (CommonRoad's own h_s is 0.61373 m);
+    # measured: equal to the last bit
+    vp = m.vehicle
+    h_s = (vp.mass * vp.cog_height - (vp.mass - vp.sprung_mass) * vp.wheel_radius) / vp.sprung_mass
+    assert m.params[MP.h_s] == pytest.approx(h_s, rel=1e-12)
+    assert abs(h_s - 0.61373) > 5e-3  # not CommonRoad's value: the relation is what is checked
 
 
 def test_bad_arguments_raise_value_error(models):

@@ -76,8 +76,10 @@ def test_steady_roll_and_lateral_load_transfer(name):
     and per axle (F_z,right - F_z,left)/2 = [K_phi,i phi + m_s (share_i) a_y h_rc,i
     + m_u,i a_y R_e] / T_i, with K_phi,i = k_i T_i^2/2 + K_arb,i, share_f = l_r/L. The
     dallara_av21 has roll centres at 0.2 m, so the link (geometric) transfer is checked too.
-    Tolerance 1 %: after 4 s at constant steer the roll mode (2-4 Hz, damped) has settled;
-    what is left is the slow speed loss.
+    After 4 s at constant steer the roll mode (2-4 Hz, damped) has settled; what is left is
+    the slow speed loss. Measured: roll 2.8e-4 (406) and 2.9e-5 (Dallara), axle transfers
+    2.6e-4 / 2.7e-4 and 1.3e-5 / 2.1e-5; tolerance 1e-3, below the smallest term it checks
+    (the unsprung masses' m_u,i a_y R_e / T_i, 4 % of the 406's transfer).
     """
     vp = _planar(name)
     m = TenDoF(vp)
@@ -90,7 +92,7 @@ def test_steady_roll_and_lateral_load_transfer(name):
     k_f = vp.spring_front * vp.track_front**2 / 2 + vp.arb_front
     k_r = vp.spring_rear * vp.track_rear**2 / 2 + vp.arb_rear
     m_s, h_roll = vp.sprung_mass, p[MP.h_roll]
-    assert (k_f + k_r) * phi == pytest.approx(m_s * h_roll * (ay + G * math.sin(phi)), rel=0.01)
+    assert (k_f + k_r) * phi == pytest.approx(m_s * h_roll * (ay + G * math.sin(phi)), rel=1e-3)
     m_ua = 0.5 * (vp.mass - vp.sprung_mass)
     fz = d["fz"]
     for (left, right), k_i, share, h_rc, track in (
@@ -100,7 +102,7 @@ def test_steady_roll_and_lateral_load_transfer(name):
          vp.track_rear),
     ):
         ref = (k_i * phi + m_s * share * ay * h_rc + m_ua * ay * vp.wheel_radius) / track
-        assert 0.5 * (fz[right] - fz[left]) == pytest.approx(ref, rel=0.01)
+        assert 0.5 * (fz[right] - fz[left]) == pytest.approx(ref, rel=1e-3)
 
 
 # --------------------------------------------------------------------------------------------
@@ -154,7 +156,9 @@ def test_cross_validation_with_commonroad_mb():
 
     Both start at 20 m/s straight, steer ramps at MB's 0.4 rad/s rate limit to 0.0193 rad and is
     held, no drive or brake; RK4 at 1 ms for 3 s. Steady yaw rate and lateral acceleration
-    agree within 10 % (issue 2 criterion; measured 1.7-1.8 %).
+    agree within 3 % (measured: flatfree 1.73 % and 1.79 % below MB; the issue 2 criterion is
+    10 %). The difference is the deterministic model difference listed below, not noise, so
+    3 % is a regression bound of it.
 
     Axes: MB uses SAE z-down axes, but its planar states (vx, vy, yaw rate) mirror an ISO
     model's one to one (VEHICLE_MODEL.md section 0), so r and a_y compare directly.
@@ -195,8 +199,8 @@ def test_cross_validation_with_commonroad_mb():
     xs = m.simulate(m.initial_state(v0), m.inputs(0.0, delta))
     ay = m.diagnostics(xs[-1], m.inputs(0.0, target))["ay"]
     assert 2.5 < ay_mb < 3.5
-    assert xs[-1, S.r] == pytest.approx(r_mb, rel=0.10)
-    assert ay == pytest.approx(ay_mb, rel=0.10)
+    assert xs[-1, S.r] == pytest.approx(r_mb, rel=0.03)
+    assert ay == pytest.approx(ay_mb, rel=0.03)
 
 
 # --------------------------------------------------------------------------------------------
@@ -209,10 +213,12 @@ def test_coast_down_follows_drag_and_rolling_resistance(name):
     m_eff v' = -F_0 - C v^2, F_0 = f_r m g, C = 1/2 rho C_d A (+ f_r 1/2 rho |C_L| A with
     downforce, the dallara_av21), m_eff = m + sum I_w / R_e^2 (VEHICLE_MODEL.md 5.6):
     v(t) = sqrt(F_0/C) tan(atan(v0 sqrt(C/F_0)) - t sqrt(F_0 C)/m_eff),
-    s_stop = m_eff/(2C) ln(1 + C v0^2/F_0). Tolerance 2 % (issue 2 criterion) on v while
-    v >= 2 m/s and on s_stop; measured < 1e-4 down to 2 m/s and 0.01 % on s_stop (below about
-    0.1 m/s the smooth sign of the rolling resistance, 0.1 rad/s wide, lengthens the last
-    centimetres). At rest 2 s after t_stop: |vx| < 1 cm/s.
+    s_stop = m_eff/(2C) ln(1 + C v0^2/F_0). Measured: v within 4.1e-5 (406) and 1.2e-4
+    (Dallara) of v(t) while v >= 2 m/s, s_stop within 1.7e-5 and 2.1e-5 (below about 0.1 m/s
+    the smooth sign of the rolling resistance, 0.1 rad/s wide, lengthens the last
+    centimetres). Tolerance 1e-3 on both (the issue 2 criterion is 2 %): dropping the
+    Dallara's f_r 1/2 rho |C_L| A term from C moves v by 11 % and s_stop by -1.9 %. At rest
+    2 s after t_stop: |vx| < 1 cm/s.
     """
     vp = load_vehicle(name)
     m = TenDoF(vp)
@@ -228,10 +234,10 @@ def test_coast_down_follows_drag_and_rolling_resistance(name):
     t = np.arange(n + 1) * dt
     v_ref = math.sqrt(f0 / c) * np.tan(np.maximum(phi0 - t * math.sqrt(f0 * c) / meff, 0.0))
     keep = v_ref >= 2.0
-    np.testing.assert_allclose(xs[keep, S.vx], v_ref[keep], rtol=0.02)
+    np.testing.assert_allclose(xs[keep, S.vx], v_ref[keep], rtol=1e-3)
     assert np.max(np.abs(xs[-1000:, S.vx])) < 0.01  # at rest 2 s after t_stop
     s_stop = meff / (2.0 * c) * math.log(1.0 + c * v0**2 / f0)
-    assert xs[-1, S.x] == pytest.approx(s_stop, rel=0.02)
+    assert xs[-1, S.x] == pytest.approx(s_stop, rel=1e-3)
 
 
 # --------------------------------------------------------------------------------------------
@@ -239,17 +245,26 @@ def test_coast_down_follows_drag_and_rolling_resistance(name):
 # --------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["peugeot406", "bmw320i"])
 def test_braking_in_a_turn_moves_load_and_cornering_stiffness_to_the_front(name):
-    """Steady turn at 25 m/s (a_y ~ 2 m/s^2), then braking at ~3 m/s^2 for 2 s, steer held.
+    """Steady turn at 25 m/s (a_y ~ 2 m/s^2), then braking at ~3 m/s^2 for 4 s, steer held.
 
     Load (reference: the quasi-static pitch balance, VEHICLE_MODEL.md 1.4-1.5 and 5.2,
     including the sprung mass's gravity moment at the pitch angle):
-    dF_z,front = (-m a_x h - F_D h_a + m_s g h_s sin theta) / L, and the rear loses as much.
-    Tolerance 2 %: after 2 s the pitch mode (1.3-1.5 Hz, zeta ~ 0.3-0.4) has settled to < 1 %.
+    dF_z,front = (-m a_x h - F_D h_a + m_s g h_s sin theta) / L, and the rear loses as much;
+    the model's pitch and heave equations give exactly this once theta'' = z'' = 0 and the
+    filtered a_x equals a_x. Checked after 4 s of braking: the brake step excites the pitch
+    mode (406: 1.25 Hz, zeta ~ 0.29), whose residual after 2 s is still 1.2 % of the transfer
+    on the 406 (0.2 % on the bmw320i) -- that oscillation, not a missing term, was why the full
+    reference looked off by 1.2 % there (and, for the bmw320i, why the bare -m a_x h / L looked
+    better: its drag and gravity terms, -29.5 N and +27.7 N, nearly cancel at 18.7 m/s). After
+    4 s, measured: 1.1e-4 / 4.5e-5 (406 front / rear), 5e-6 (bmw320i). Tolerance 1e-3, while
+    the drag and gravity terms are each > 1 % of the transfer (asserted): dropping either, or
+    both (bare reference: 2.7 % / 1.9 % off), fails.
 
     Effective axle cornering stiffness C = -(F_y,l + F_y,r) / mean(alpha) (the paper's
-    Figure 3): the front rises and the rear falls. Its relative change must equal the change of
-    sum_j C_alpha(F_z,j) (flatfree.tires.cornering_stiffness at the measured wheel loads: the
-    tyre's load sensitivity) within 2.5 percentage points, which bounds what that prediction
+    Figure 3), before braking and after 2 s of it: the front rises and the rear falls. Its
+    relative change must equal the change of sum_j C_alpha(F_z,j)
+    (flatfree.tires.cornering_stiffness at the measured wheel loads: the tyre's load
+    sensitivity) within 2.5 percentage points, which bounds what that prediction
     leaves out: combined slip at the braking slips |kappa| <= 0.025 lowers F_y by at most
     1 - cos(r_Cy1 atan(r_By1 0.025)) <= 1.5 % (406: r_Cy1 1.081, r_By1 6.461), and the Magic
     Formula's secant, 1 - F_y/(C_alpha alpha) ~ (1/3 + C^2/6)(B alpha)^2 <= 2.4 % at
@@ -261,27 +276,33 @@ def test_braking_in_a_turn_moves_load_and_cornering_stiffness_to_the_front(name)
     m = TenDoF(vp)
     n1, n2 = 3000, 2000
     delta = 0.012 if name == "peugeot406" else 0.009
+    n3 = 2000  # braking continues to 4 s for the load-transfer check
     tb = -vp.mass * 3.0 * vp.wheel_radius
     # cruise torque for 25 m/s: drag and rolling resistance
     cruise = vp.wheel_radius * (0.5 * vp.air_density * vp.drag_area * 25.0**2
                                 + vp.rolling_resistance * vp.mass * G)
-    tw = np.r_[np.full(n1, cruise), np.full(n2, tb)]
+    tw = np.r_[np.full(n1, cruise), np.full(n2 + n3, tb)]
     u = m.inputs(tw, delta)
     xs = m.simulate(m.initial_state(25.0), u)
     d = m.diagnostics(xs[1:], u)
     kb, ka = n1 - 1, n1 + n2 - 1  # just before braking, after 2 s of braking
-    assert d["ay"][kb] > 1.8 and d["ax"][ka] < -2.5 and xs[-1, S.vx] > 15.0
+    kl = n1 + n2 + n3 - 1  # after 4 s of braking
+    assert d["ay"][kb] > 1.8 and d["ax"][ka] < -2.5 and xs[ka + 1, S.vx] > 15.0
+    assert d["ax"][kl] < -2.5 and xs[kl + 1, S.vx] > 10.0
 
     # load transfer
-    x = xs[ka + 1]
+    x = xs[kl + 1]
     fd = 0.5 * vp.air_density * vp.drag_area * x[S.vx] ** 2
     theta = x[S.pitch]
-    ref = (-vp.mass * d["ax"][ka] * vp.cog_height - fd * vp.drag_height
-           + vp.sprung_mass * G * m.params[MP.h_s] * math.sin(theta)) / vp.wheelbase
-    front = d["fz"][ka][:2].sum() - vp.static_axle_loads[0]
-    rear = d["fz"][ka][2:].sum() - vp.static_axle_loads[1]
-    assert front == pytest.approx(ref, rel=0.02)
-    assert rear == pytest.approx(-ref, rel=0.02)
+    inertia = -vp.mass * d["ax"][kl] * vp.cog_height / vp.wheelbase
+    drag = -fd * vp.drag_height / vp.wheelbase
+    gravity = vp.sprung_mass * G * m.params[MP.h_s] * math.sin(theta) / vp.wheelbase
+    ref = inertia + drag + gravity
+    assert abs(drag) > 0.01 * ref and abs(gravity) > 0.01 * ref  # the check sees both terms
+    front = d["fz"][kl][:2].sum() - vp.static_axle_loads[0]
+    rear = d["fz"][kl][2:].sum() - vp.static_axle_loads[1]
+    assert front == pytest.approx(ref, rel=1e-3)
+    assert rear == pytest.approx(-ref, rel=1e-3)
 
     def stiffness(k: int, wheels: slice) -> float:
         return float(-np.sum(d["fy"][k][wheels]) / np.mean(d["alpha"][k][wheels]))

@@ -53,22 +53,27 @@ def wrap_diff(a, b, period):
 @pytest.mark.parametrize("smoothing", [0.0, T.DEFAULT_SMOOTHING_LENGTH])
 @pytest.mark.parametrize("sign", [1.0, -1.0])
 def test_sampled_circle_curvature_and_length(radius, spacing, smoothing, sign):
-    """Issue 4: a sampled circle gives kappa = 1/R within 0.5 % and length 2 pi R within 0.1 %.
+    """Issue 4: a sampled circle gives kappa = 1/R within 0.5 % and length 2 pi R within 0.1 %;
+    it does far better, and the test holds it to that.
 
     Sampled like the TUMFTM files (every `spacing` metres, last point one spacing before the
-    first), with the default smoothing and without; clockwise too (kappa = -1/R).
+    first), with the default smoothing and without; clockwise too (kappa = -1/R). The smoothing
+    low-pass (H(f) = 1/(1 + (f L_s)^8)) shrinks a circle of wavelength 2 pi R by
+    (L_s / (2 pi R))^8 relative: 4.1e-6 at R = 15 m with L_s = 20 m, the largest here (measured:
+    kappa 5.9e-6, length 4.6e-6 relative, heading 6.1e-8 rad): tolerance 2e-5 relative, 1e-6 rad.
     """
     n = int(round(2 * math.pi * radius / spacing))
     th = sign * np.arange(n) * 2 * math.pi / n
     trk = T.Track.from_points(radius * np.cos(th), radius * np.sin(th),
                               smoothing_length=smoothing)
     assert trk.closed
-    np.testing.assert_allclose(trk.kappa * radius, sign, rtol=0.005)
-    assert trk.length == pytest.approx(2 * math.pi * radius, rel=0.001)
+    np.testing.assert_allclose(trk.kappa * radius, sign, rtol=2e-5)
+    assert trk.length == pytest.approx(2 * math.pi * radius, rel=2e-5)
     assert trk.turning_number == pytest.approx(sign, abs=1e-9)
     # heading: tangent of the circle at the node's polar angle (counter-clockwise: angle + 90 deg)
     ang = np.arctan2(trk.y, trk.x)
-    np.testing.assert_allclose(np.cos(trk.psi - ang - sign * math.pi / 2), 1.0, atol=1e-4)
+    np.testing.assert_allclose(wrap_diff(trk.psi, ang + sign * math.pi / 2, 2 * math.pi), 0.0,
+                               atol=1e-6)
 
 
 def test_exact_circle_is_near_machine_precision():
@@ -267,7 +272,7 @@ def test_projector_shell_equals_the_kernel():
         assert r1 == tuple(r2)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60, deadline=None, derandomize=True)
 @given(frac=st.floats(0.0, 1.0, exclude_max=True), e=st.floats(-4.0, 4.0),
        hint=st.floats(-3.0, 3.0))
 def test_projection_inverts_the_frenet_frame_on_a_real_track(frac, e, hint):

@@ -59,10 +59,11 @@ multiplies ``S_Hy``, ``S_Vy`` by ``sgn(gamma)``, so at camber 0 they vanish ther
 Limits of the MF combined-slip formulation (measured, see ``tests/test_tires.py``): the weighting
 functions ``G`` reduce each force from its pure-slip value but do not keep the resultant inside
 the friction ellipse. At ``mu_scale = 1``, ``(F_x/(mu_x F_z))^2 + (F_y/(mu_y F_z))^2`` reaches
-1.262 for the CommonRoad set and 1.055 for the 205/60R15 set (near the longitudinal peak with a
-small slip angle). Because ``G`` does not scale with ``mu_scale`` while the pure-slip curves
-narrow (``B ~ 1/mu_scale``), the excess grows on low friction: about 1.54 at ``mu_scale = 0.5``
-and 1.94 at 0.1 (CommonRoad set); the hard bound is 2 (``|G| <= 1``).
+1.2061 for the CommonRoad set (the supremum, from CommonRoad's own functions) and 1.0461 for the
+205/60R15 set (near the longitudinal peak with a small slip angle). Because ``G`` does not
+scale with ``mu_scale`` while the pure-slip curves narrow (``B ~ 1/mu_scale``), the excess grows
+on low friction: about 1.54 at ``mu_scale = 0.5`` and 1.94 at 0.1 (CommonRoad set); the hard
+bound is 2 (``|G| <= 1``).
 
 Compiled kernels (``numba.njit``, scalars in, scalars out, no allocation): :func:`slip_speed`,
 :func:`slip_ratio`, :func:`slip_angle`, :func:`mf_fx0`, :func:`mf_fy0`, :func:`mf_combined`,
