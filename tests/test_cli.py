@@ -619,17 +619,22 @@ def test_run_out_prints_the_steer_lock_warning_once(runner, tmp_path):
 
 def test_run_builds_the_reference_once_after_the_run(runner, tmp_path, monkeypatch):
     """The note on a run shorter than --duration, the recorded steer and --out's figures share
-    one reference: simulate's prepare() and one more (there were four)."""
+    one reference, read without a second prepare(): the reference is built twice, by simulate's
+    prepare() and once after the run (there were four builds, each a whole prepare())."""
     import flatfree.simulation
 
-    calls = []
-    real = flatfree.simulation.prepare
+    calls: dict[str, int] = {"prepare": 0, "_reference": 0}
 
-    def counted(*args, **kwargs):
-        calls.append(args)
-        return real(*args, **kwargs)
+    def counting(name):
+        real = getattr(flatfree.simulation, name)
 
-    monkeypatch.setattr(flatfree.simulation, "prepare", counted)
+        def counted(*args, **kwargs):
+            calls[name] += 1
+            return real(*args, **kwargs)
+        return counted
+
+    for name in calls:
+        monkeypatch.setattr(flatfree.simulation, name, counting(name))
     # 20 s of the bundled recording, at speed (a short user recording)
     lines = (resources.files("flatfree") / "data" / "recordings" /
              "LVMS_23_01_04_B.csv").read_text().splitlines()
@@ -641,7 +646,7 @@ def test_run_builds_the_reference_once_after_the_run(runner, tmp_path, monkeypat
     assert "note: the run ended at" in res.stderr  # the three users of the reference ran
     assert json.loads(res.stdout)["steer_rms_vs_recorded_deg"] is not None
     assert (tmp_path / "o" / "figures" / "fig4_paths.png").is_file()
-    assert len(calls) == 2
+    assert calls == {"prepare": 1, "_reference": 2}
 
 
 # ------------------------------------------------------------------------------------------

@@ -112,7 +112,7 @@ def test_noise_switch_keeps_rates_and_delays():
                      "psi, vx, vy, r, ax, ay")]),
         (('[[fault]]\nkind = "nan_measurement"\nchannel = "e_y"\nt_start_s = 1.0\n'
           'duration_s = 0.1\n'),
-         ["line 3", ("field fault.channel: fault.channel = 'e_y': not a measured channel; "
+         ["line 3", ("field fault.channel: fault.channel: 'e_y' is not a measured channel; "
                      "channels: x, y, psi, vx, vy, r, ax, ay")]),
         ('name = "paper-noise-free"\nnoise = true\n',
          ["line 2", ("field noise: noise = True: the scenario's name 'paper-noise-free' says "
@@ -261,7 +261,7 @@ def test_setting_path_is_the_path_scenario_with_settings_reads():
 def test_fault_needs_its_fields():
     with pytest.raises(ValueError, match="needs the channel"):
         Fault(kind="nan_measurement", t_start_s=0.0, duration_s=1.0)
-    with pytest.raises(ValueError, match=r"^fault.channel = 'e_y': not a measured channel; "
+    with pytest.raises(ValueError, match=r"^fault.channel: 'e_y' is not a measured channel; "
                                          r"channels: x, y, psi, vx, vy, r, ax, ay$"):
         Fault(kind="nan_measurement", channel="e_y", t_start_s=0.0, duration_s=1.0)
     with pytest.raises(ValueError, match="needs the limit"):

@@ -323,11 +323,14 @@ def test_second_order_drift_is_smooth_where_the_first_order_one_walks():
 
 
 def test_drift_order_is_one_or_two():
-    """markov_order other than the int 1 or 2 (also True, an int subclass) raises, naming it."""
-    with pytest.raises(ValueError, match=r"^markov_order = 3: must be 1 or 2$"):
-        SensorChannel(markov_std=0.01, markov_tau_s=1.0, markov_order=3)
-    with pytest.raises(ValueError, match=r"^markov_order = True: must be 1 or 2$"):
-        SensorChannel(markov_std=0.01, markov_tau_s=1.0, markov_order=True)
+    """markov_order other than 1 or 2 (also True and NumPy's True, which equal 1) raises,
+    naming it; a file's 2.0 is stored as the int 2."""
+    for bad in (3, True, np.True_, "2"):
+        msg = rf"^markov_order = {re.escape(repr(bad))}: must be 1 or 2$"
+        with pytest.raises(ValueError, match=msg):
+            SensorChannel(markov_std=0.01, markov_tau_s=1.0, markov_order=bad)
+    ch = SensorChannel(markov_std=0.01, markov_tau_s=1.0, markov_order=2.0)
+    assert ch.markov_order == 2 and type(ch.markov_order) is int
 
 
 def test_drift_needs_its_correlation_time():

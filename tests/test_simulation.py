@@ -13,6 +13,7 @@ import os
 import re
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -228,6 +229,28 @@ def test_a_state_that_goes_non_finite_ends_the_run_with_that_status():
         assert len(tr) == 1 and _finite(tr)
         m = compute_metrics(tr, startup_s=0.0)
         assert m.status == "non_finite"
+
+
+@pytest.mark.parametrize("name", ["paper", "recorded"])
+def test_reference_of_is_the_reference_prepare_builds(name):
+    """reference_of(sc) (the reference alone, read after a run) is prepare(sc).reference, bit for
+    bit, with the vehicle's overrides (a drive limit that depends on them)."""
+    from flatfree.scenario import scenario_with_settings
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare, reference_of
+
+    sc = named_scenario(name, duration_s=5.0)
+    if name == "paper":
+        sc = scenario_with_settings(sc, {"reference.drive_limit": True,
+                                         "vehicle_overrides.max_power": 60e3})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = prepare(sc).reference
+    b = reference_of(sc)
+    for k in ("t", "s_path", "x", "y", "vx", "kappa"):
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+    if name == "paper":  # the override acts: the 60 kW car's reference is slower
+        assert reference_of(named_scenario(name))["vx"].max() > b["vx"].max() + 1.0
 
 
 def test_path_schedule_reads_the_reference_at_the_measured_arc_length():

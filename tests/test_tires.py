@@ -71,6 +71,16 @@ def _cr_modules():
     return tm, parameters_vehicle2().tire
 
 
+#: (flatfree field, CommonRoad field, sign) of the coefficients both models have; the sign
+#: flips r_Hy1 and r_Vy1 (CommonRoad's MB slip s = -kappa, see _flatfree_like_commonroad)
+_CR_NAMES = tuple(
+    (f"{a[0]}{a[2:]}", a, -1.0 if a in ("r_hy1", "r_vy1") else 1.0) for a in (
+        "p_cx1", "p_dx1", "p_ex1", "p_kx1", "p_hx1", "p_vx1",
+        "p_cy1", "p_dy1", "p_ey1", "p_ky1", "p_hy1", "p_vy1",
+        "r_bx1", "r_bx2", "r_cx1", "r_ex1", "r_hx1",
+        "r_by1", "r_by2", "r_by3", "r_cy1", "r_ey1", "r_hy1", "r_vy1", "r_vy4", "r_vy5", "r_vy6"))
+
+
 def _flatfree_like_commonroad(p, *, pvx1: float):
     """flatfree TireParams with CommonRoad's raw coefficients, mapped where the models differ.
 
@@ -82,15 +92,9 @@ def _flatfree_like_commonroad(p, *, pvx1: float):
       kappa_S, so flatfree with r_hy1 -> -r_hy1 and r_vy1 -> -r_vy1 is CommonRoad's tyre.
     * S_Vx: CommonRoad adds it inside the sine; compared separately (pvx1 argument).
     """
-    base = load_tire("commonroad")
-    return dataclasses.replace(
-        base,
-        pcx1=p.p_cx1, pdx1=p.p_dx1, pex1=p.p_ex1, pkx1=p.p_kx1, phx1=p.p_hx1, pvx1=pvx1,
-        pcy1=p.p_cy1, pdy1=p.p_dy1, pey1=p.p_ey1, pky1=p.p_ky1, phy1=0.0, pvy1=0.0,
-        rbx1=p.r_bx1, rbx2=p.r_bx2, rcx1=p.r_cx1, rex1=p.r_ex1, rhx1=p.r_hx1,
-        rby1=p.r_by1, rby2=p.r_by2, rby3=p.r_by3, rcy1=p.r_cy1, rey1=p.r_ey1,
-        rhy1=-p.r_hy1, rvy1=-p.r_vy1, rvy4=p.r_vy4, rvy5=p.r_vy5, rvy6=p.r_vy6,
-    )
+    values = {ours: sign * getattr(p, theirs) for ours, theirs, sign in _CR_NAMES}
+    values.update(pvx1=pvx1, phy1=0.0, pvy1=0.0)
+    return dataclasses.replace(load_tire("commonroad"), **values)
 
 
 def test_matches_commonroad_tire_model_on_a_grid():
@@ -345,14 +349,8 @@ def _commonroad_peer_tire(tm, p):
     absent = ("pdx2", "pex2", "pex3", "pex4", "pkx2", "pkx3", "phx2", "pvx2", "pdy2", "pey2",
               "pey3", "phy2", "pvy2", "rex2", "rey2", "rhy2", "rvy2")
     assert all(getattr(t, f) == 0.0 for f in absent)
-    q = dataclasses.replace(
-        p,
-        p_cx1=t.pcx1, p_dx1=t.pdx1, p_ex1=t.pex1, p_kx1=t.pkx1, p_hx1=t.phx1, p_vx1=t.pvx1,
-        p_cy1=t.pcy1, p_dy1=t.pdy1, p_ey1=t.pey1, p_ky1=t.pky1, p_hy1=t.phy1, p_vy1=t.pvy1,
-        r_bx1=t.rbx1, r_bx2=t.rbx2, r_cx1=t.rcx1, r_ex1=t.rex1, r_hx1=t.rhx1,
-        r_by1=t.rby1, r_by2=t.rby2, r_by3=t.rby3, r_cy1=t.rcy1, r_ey1=t.rey1,
-        r_hy1=-t.rhy1, r_vy1=-t.rvy1, r_vy4=t.rvy4, r_vy5=t.rvy5, r_vy6=t.rvy6,
-    )
+    q = dataclasses.replace(p, **{theirs: sign * getattr(t, ours)
+                                  for ours, theirs, sign in _CR_NAMES})
     changed = {f.name for f in dataclasses.fields(p) if getattr(p, f.name) != getattr(q, f.name)}
     assert changed == _SYMMETRISED and all(getattr(q, f) == 0.0 for f in changed)
     return q
@@ -371,7 +369,7 @@ def _peer_ellipse_ratio(tm, q, kappa: float, alpha: float, fz: float) -> float:
 #: Slip grid of the peer's ellipse search (kappa and alpha alike): 301 points, 3.1e-3 apart
 #: near 0 (the maximum sits at |kappa| = 0.118, |alpha| = 0.082 rad), out to |slip| = 27.8,
 #: which covers kappa / mu_scale and alpha / mu_scale of the similarity test (<= 20 and 16).
-#: Beyond, e stays below 0.88 (measured with flatfree out to |slip| = 1000).
+#: Beyond, e stays below 0.88 (a one-off measurement with flatfree out to |slip| = 1000).
 _ELLIPSE_GRID = 0.3 * np.tan(np.linspace(-1.56, 1.56, 301))
 _PEER_FZ = 4000.0
 

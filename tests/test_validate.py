@@ -52,6 +52,18 @@ def test_real_array_names_the_unit_when_given():
     assert as_real(7) == 7.0 and type(as_real(7)) is float
 
 
+def test_one_of_takes_the_allowed_integers_only():
+    from flatfree._validate import one_of
+
+    assert one_of("nu", 2, (1, 2)) == 2 and type(one_of("nu", 2.0, (1, 2))) is int
+    assert one_of("nu", np.int64(1), (1, 2)) == 1
+    for bad in (True, np.True_, 3, 1.5, "1", math.nan, None, [1]):
+        with pytest.raises(ValueError, match=r"^nu = .+: must be 1 or 2 \(hint\)$"):
+            one_of("nu", bad, (1, 2), " (hint)")
+    with pytest.raises(ValueError, match=r"^mode = 4: must be 1, 2 or 3$"):
+        one_of("mode", 4, (1, 2, 3))
+
+
 def test_whole_keeps_large_integers_exact_and_refuses_what_float_cannot_hold():
     from flatfree._validate import whole
 

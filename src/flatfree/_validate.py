@@ -8,7 +8,7 @@ import numpy as np
 
 __all__ = [
     "as_real", "real", "real_array", "finite", "positive", "positive_or_inf", "nonnegative",
-    "in_range", "whole",
+    "in_range", "whole", "one_of",
 ]
 
 
@@ -118,4 +118,15 @@ def whole(name: str, value, lo: int, unit: str = "") -> int:
     v = as_real(value)
     if v is None or not math.isfinite(v) or v != int(v) or v < lo:
         raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")
+    return int(v)
+
+
+def one_of(name: str, value, allowed: tuple[int, ...], hint: str = "") -> int:
+    """One of the integers ``allowed`` (an order, a mode), as an int; an integral float such as
+    a TOML ``2.0`` too. Booleans (NumPy's too: ``np.True_ == 1``), text, NaN and others raise;
+    ``hint`` ends the message."""
+    v = as_real(value)
+    if v is None or v not in allowed:
+        raise ValueError(f"{_fmt(name, value, '')}: must be "
+                         f"{', '.join(map(str, allowed[:-1]))} or {allowed[-1]}{hint}")
     return int(v)

@@ -585,26 +585,16 @@ def _simulate_collecting(sc, warned: list[str]):
             warned.extend(str(w.message) for w in caught)
 
 
-def _quiet_reference(sc):
-    """The reference of ``sc`` (``prepare(sc).reference``), its warnings silenced: the run
-    warns (or the run's error says) what they would repeat."""
-    import warnings
-
-    from flatfree.simulation import prepare
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return prepare(sc).reference
-
-
 def _reference_end(sc, ref=None) -> str:
     """Where a run ends at the latest: the end of its reference path, how long the reference
     ``ref`` (None: built here, if it can be) lasts, and the setting that makes it longer
     (reference.laps on a closed track)."""
+    from flatfree.simulation import reference_of
+
     spec = sc.reference
     if ref is None:
         with contextlib.suppress(ValueError, MemoryError):  # then said without its length
-            ref = _quiet_reference(sc)
+            ref = reference_of(sc)
     lasts = "" if ref is None else f", {ref.duration:.1f} s"
     if spec.recording is not None:
         return (f"a run ends where its reference ends (the recording {spec.recording}{lasts}), "
@@ -752,6 +742,7 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
     """
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult, format_table
+    from flatfree.simulation import reference_of
 
     if with_csv and out_dir is None:
         raise _fail("--csv writes into the --out folder: give --out DIR too")
@@ -767,7 +758,7 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         tr = _simulate(sc)
         # the run's reference for the notes, the recorded steer and the figures: built once
         # (simulate() does not return it), quietly (the run printed its warnings), when needed
-        reference = functools.cache(functools.partial(_quiet_reference, sc))
+        reference = functools.cache(functools.partial(reference_of, sc))
         _note_short_or_capped(sc, tr, reference)
         m = compute_metrics(tr, startup_s=sc.timing.startup_s)
         extra: dict[str, float] = {}
@@ -931,7 +922,7 @@ def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
     Raises :class:`InputError` (exit 2) on a bad setting or one of
     :data:`DEMO_FIXED_FIELDS`.
     """
-    from flatfree.scenario import scenario_with_settings, setting_path
+    from flatfree.scenario import NOISE_FREE_SUFFIX, scenario_with_settings, setting_path
 
     for s in settings:
         try:
@@ -944,7 +935,7 @@ def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
             raise _fail(f"--set {s}: demo runs several controllers, cars and references, so "
                         f"{fixed} cannot be set for all of them; use `flatfree run` (or demo "
                         "--track for the track)")
-    sfx = "" if noise else "-noise-free"
+    sfx = "" if noise else NOISE_FREE_SUFFIX
     kw: dict[str, Any] = {"seed": seed, "duration_s": duration_s}
     if track is not None:
         kw["track"] = track
@@ -1018,12 +1009,14 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
     unit (paper-imu, recorded-imu); prints our errors beside the paper's and writes
     OUT/report.html (self-contained) and OUT/figures/*.png, *.svg.
     """
+    from flatfree.simulation import reference_of
+
     tasks = _demo_tasks(track=track, seed=seed, duration_s=duration_s,
                         rec_duration_s=rec_duration_s, no_recorded=no_recorded, noise=noise,
                         settings=settings)
     # the desired path (and a check of the track name before the long part)
     try:
-        ref_xy = _xy(_quiet_reference(tasks[0][2]))
+        ref_xy = _xy(reference_of(tasks[0][2]))
     except ValueError as exc:
         raise _fail(str(exc)) from None
     with _out_dir(out_dir):  # before the long part too

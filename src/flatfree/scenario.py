@@ -355,8 +355,7 @@ class Fault:
             if not self.channel:
                 raise ValueError("fault.channel: a nan_measurement fault needs the channel name")
             if self.channel not in SENSOR_CHANNELS:
-                raise ValueError(f"fault.channel = {self.channel!r}: not a measured channel; "
-                                 f"channels: {', '.join(SENSOR_CHANNELS)}")
+                raise ValueError(f"fault.channel: {_not_a_channel(self.channel)}")
         if self.kind == "steer_limit":
             if self.value is None:
                 raise ValueError("fault.value: a steer_limit fault needs the limit [rad]")

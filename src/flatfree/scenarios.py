@@ -263,7 +263,7 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
 
 def paper_scenarios(*, noise: bool = True, track: str | None = None) -> dict[str, Scenario]:
     """The four track scenarios of the paper comparison, by name."""
-    sfx = "" if noise else "-noise-free"
+    sfx = "" if noise else NOISE_FREE_SUFFIX
     return {b: named_scenario(b + sfx, track=track) for b in _BASE}
 
 
@@ -274,17 +274,13 @@ def recorded_steer(traj_time: np.ndarray, scenario: Scenario, *,
     The run's clock starts at the reference's first sample, so the recorded steer is read at the
     same reference time (``t_ref`` when the run logged it, else the clock). ``reference``: the
     scenario's reference (:class:`~flatfree.tracks.Reference`, ``prepare(scenario).reference``)
-    when the caller has it; None (default): built here, its warnings silenced (the run warned
-    already).
+    when the caller has it; None (default): built here
+    (:func:`flatfree.simulation.reference_of`).
     """
     if reference is None:
-        import warnings
+        from flatfree.simulation import reference_of  # late: simulation imports the heavy parts
 
-        from flatfree.simulation import prepare  # late: simulation imports the heavy parts
-
-        with warnings.catch_warnings():  # the run warned already; reading its reference repeats
-            warnings.simplefilter("ignore")
-            reference = prepare(scenario).reference
+        reference = reference_of(scenario)
     if "delta_recorded" not in reference.extras:
         raise ValueError(f"scenario {scenario.name!r}: its reference is not a recording")
     return np.interp(np.asarray(traj_time, dtype=float), reference["t"],

@@ -47,7 +47,7 @@ from types import MappingProxyType
 import numpy as np
 from numba import njit
 
-from flatfree._validate import finite, nonnegative, positive
+from flatfree._validate import finite, nonnegative, one_of, positive
 from flatfree._vecmath import no_refcount
 
 __all__ = ["SENSOR_CHANNELS", "SensorChannel", "SensorSuite", "CompiledSensors", "sense_step"]
@@ -107,8 +107,7 @@ class SensorChannel:
                 f"markov_std = {self.markov_std!r}: a drift needs its correlation time "
                 "markov_tau_s [s]"
             )
-        if isinstance(self.markov_order, bool) or self.markov_order not in (1, 2):
-            raise ValueError(f"markov_order = {self.markov_order!r}: must be 1 or 2")
+        object.__setattr__(self, "markov_order", one_of("markov_order", self.markov_order, (1, 2)))
 
 
 @dataclass(frozen=True, slots=True)

@@ -108,7 +108,7 @@ from flatfree.vehicles import VehicleParams, load_vehicle
 
 __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "Prepared",
            "flying_lap_speed",
-           "PythonController", "prepare", "simulate"]
+           "PythonController", "prepare", "reference_of", "simulate"]
 
 #: Half-width of the road used for the left-the-track check where the track gives no width [m].
 DEFAULT_HALF_WIDTH_M = 7.5
@@ -651,6 +651,16 @@ def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
         f"y2 = lf m Vy - Iz r (yaw index Iz / (m lf lr) = "
         f"{model.iz / (model.m * model.lf * model.lr):.2f} < 1): the lateral loop fails near "
         "that speed", UserWarning, stacklevel=3)
+
+
+def reference_of(sc: Scenario | str) -> Reference:
+    """The reference a run of ``sc`` follows (``prepare(sc).reference``), without building the
+    controllers and their 3DoF references; the warnings a run gives about it are not repeated
+    (for reading a run's reference after the run: the recorded steer, figures, notes)."""
+    sc = _as_scenario(sc)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return _reference(sc, load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides)))
 
 
 def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> Prepared:

@@ -60,10 +60,12 @@ Limits of the MF combined-slip formulation (measured, see ``tests/test_tires.py`
 functions ``G`` reduce each force from its pure-slip value but do not keep the resultant inside
 the friction ellipse. At ``mu_scale = 1``, ``(F_x/(mu_x F_z))^2 + (F_y/(mu_y F_z))^2`` reaches
 1.2061 for the CommonRoad set (the supremum, from CommonRoad's own functions) and 1.0461 for the
-205/60R15 set (near the longitudinal peak with a small slip angle). Because ``G`` does not
-scale with ``mu_scale`` while the pure-slip curves narrow (``B ~ 1/mu_scale``), the excess grows
-on low friction: about 1.54 at ``mu_scale = 0.5`` and 1.94 at 0.1 (CommonRoad set); the hard
-bound is 2 (``|G| <= 1``).
+205/60R15 set (near the longitudinal peak with a small slip angle); the hard bound is 2
+(``|G| <= 1``). On a road of lower friction the excess is the same: :func:`mf_combined`
+evaluates ``G`` at slip / ``mu_scale``, so the forces are a similarity in ``mu_scale``
+(``tests/test_tires.py``, ``test_combined_is_a_similarity_in_mu``; the plain MF 5.2 weighting
+would reach 1.51 at ``mu_scale = 0.5`` and 1.93 at 0.1: benchmarks/README.md "Friction-ellipse
+exceedance on low-friction roads").
 
 Compiled kernels (``numba.njit``, scalars in, scalars out, no allocation): :func:`slip_speed`,
 :func:`slip_ratio`, :func:`slip_angle`, :func:`mf_fx0`, :func:`mf_fy0`, :func:`mf_combined`,
@@ -91,7 +93,7 @@ import numpy as np
 from numba import njit
 
 from flatfree import _vecmath as vm
-from flatfree._validate import real, real_array
+from flatfree._validate import positive, real_array
 from flatfree.vehicles.params import TP, TireParams
 
 __all__ = [
@@ -653,13 +655,6 @@ def _check_tire(tire) -> None:
         raise ValueError(f"tire = {tire!r}: expected a TireParams (see flatfree.load_tire)")
 
 
-def _check_scalar_load(fz: float) -> float:
-    v = real("fz", fz, "N")
-    if not (math.isfinite(v) and v > 0.0):
-        raise ValueError(f"fz = {fz!r} N: must be finite and > 0")
-    return v
-
-
 def _check_mu(mu_scale) -> np.ndarray:
     m = real_array("mu_scale", mu_scale)
     if not np.all(np.isfinite(m) & (m > 0.0)):
@@ -703,8 +698,8 @@ def cornering_stiffness(tire: TireParams, fz: float, *, mu_scale: float = 1.0) -
     [P12] eqs. (4.E19)-(4.E26); [VM] sections 2.5 and 2.6.
     """
     _check_tire(tire)
-    fz = _check_scalar_load(fz)
-    mu = float(_check_mu(real("mu_scale", mu_scale)))
+    fz = positive("fz", fz, "N")
+    mu = positive("mu_scale", mu_scale)
     tp = tire.to_array()
     b, c, d, e0, sh, _sv, _mu = _lat_coeffs(fz, _dfz(fz, tp), mu, tp)
     e = min(e0 * (1.0 - tire.pey3 * float(np.sign(sh))), 1.0)  # 4.E24 at alpha_y = S_Hy
@@ -728,8 +723,8 @@ def slip_stiffness(tire: TireParams, fz: float, *, mu_scale: float = 1.0) -> flo
     [P12] eqs. (4.E9)-(4.E16); [VM] sections 2.4 and 2.6.
     """
     _check_tire(tire)
-    fz = _check_scalar_load(fz)
-    mu = float(_check_mu(real("mu_scale", mu_scale)))
+    fz = positive("fz", fz, "N")
+    mu = positive("mu_scale", mu_scale)
     tp = tire.to_array()
     b, c, d, e0, sh, _sv, _mu = _long_coeffs(fz, _dfz(fz, tp), mu, tp)
     e = min(e0 * (1.0 - tire.pex4 * float(np.sign(sh))), 1.0)  # 4.E14 at kappa_x = S_Hx
@@ -746,8 +741,8 @@ def friction_coefficients(
     [P12] eqs. (4.E13) and (4.E23).
     """
     _check_tire(tire)
-    fz = _check_scalar_load(fz)
-    mu = float(_check_mu(real("mu_scale", mu_scale)))
+    fz = positive("fz", fz, "N")
+    mu = positive("mu_scale", mu_scale)
     tp = tire.to_array()
     dfz = _dfz(fz, tp)
     return abs(_long_coeffs(fz, dfz, mu, tp)[6]), abs(_lat_coeffs(fz, dfz, mu, tp)[6])

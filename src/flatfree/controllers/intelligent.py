@@ -133,7 +133,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from flatfree._validate import finite, positive, positive_or_inf, real
+from flatfree._validate import finite, one_of, positive, positive_or_inf, real
 from flatfree._vecmath import no_refcount
 from flatfree.controllers._shell import CompiledController, nonfinite_command
 from flatfree.estimators import derivative_weights, f_estimator_weights
@@ -785,7 +785,7 @@ class IntelligentParams:
     anti_windup: str = "clamp"
 
     def __post_init__(self) -> None:
-        _check_nu(self.nu)
+        one_of("nu", self.nu, (1, 2))  # the ultra-local model's order (True is not one)
         a = finite("alpha", self.alpha, "(y-unit/s^nu) per u-unit")
         if a == 0.0:
             raise ValueError(f"alpha = {self.alpha!r} (y-unit/s^nu) per u-unit: must be nonzero")
@@ -906,12 +906,6 @@ def _moment_constants(p: np.ndarray, L: int) -> None:
     p[_MOM] = 1.0
 
 
-def _check_nu(nu) -> None:
-    """The order of the ultra-local model: 1 or 2 (``True`` is not an order)."""
-    if isinstance(nu, (bool, np.bool_)) or nu not in (1, 2):
-        raise ValueError(f"nu = {nu!r}: must be 1 or 2")
-
-
 def _check_window(name: str, value, lo: int, what: str) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name} = {value!r} samples: expected an integer")
@@ -976,7 +970,7 @@ def error_dynamics_gains(
     .. [P] paper Section 3.2.2 (closed-loop error equation); NOTES.md "Intelligent controllers".
     """
     p = 0.0 if integral_pole is None else positive("integral_pole", integral_pole, "1/s")
-    _check_nu(nu)
+    nu = one_of("nu", nu, (1, 2))
     if nu == 1:
         if time_constant is None:
             raise ValueError("time_constant = None: required for nu = 1 (the error's time "

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flatfree._validate import positive
+from flatfree._validate import one_of, positive
 
 __all__ = ["f_estimator_weights", "derivative_weights", "denoising_weights"]
 
@@ -112,8 +112,7 @@ def f_estimator_weights(nu: int, n: int, dt: float) -> tuple[np.ndarray, np.ndar
     .. [P] paper eqs. (integral), (integral_2) corrected in NOTES.md "Algebraic estimators".
     .. [MJF09] Mboup, Join, Fliess, Numer. Algorithms 50 (2009) 439-467.
     """
-    if isinstance(nu, bool) or nu not in (1, 2):
-        raise ValueError(f"nu = {nu!r}: must be 1 or 2")
+    nu = one_of("nu", nu, (1, 2))
     n = _check_int("n", n, nu + 1)
     dt = _check_dt(dt)
     a = _gram_coeffs(n, nu)  # oldest first, per sample^nu
@@ -164,8 +163,7 @@ def derivative_weights(n: int, dt: float, order: int = 1) -> np.ndarray:
     .. [P] paper eq. (Derivative), corrected in NOTES.md ("the extra T is a typo").
     .. [MJF09] Mboup, Join, Fliess, Numer. Algorithms 50 (2009) 439-467.
     """
-    if isinstance(order, bool) or order not in (1, 2):
-        raise ValueError(f"order = {order!r}: must be 1 or 2 (use JacobiDesign for higher orders)")
+    order = one_of("order", order, (1, 2), " (use JacobiDesign for higher orders)")
     n = _check_int("n", n, order + 1)
     dt = _check_dt(dt)
     a = _gram_coeffs(n, order)

@@ -637,9 +637,16 @@ def _beta_path_ddot_at(f, k, b, bd, v, a, kap, rkd, m, iz, lf, lcr, lr):
 
 
 @numba.njit(cache=True)
+def _beta_path_small_angle(v, kap, rkd, m, iz, lf, lcr, lr):
+    """The quasi-steady beta (beta' = beta'' = 0) of the small-angle model: beta'' = 0 with
+    sin b = tan b = b, cos b = 1 and a_x sin b neglected."""
+    return lr * kap + (iz * rkd - lf * m * v * v * kap) / lcr
+
+
+@numba.njit(cache=True)
 def _beta_path_qs(v, a, kap, rkd, m, iz, lf, lcr, lr):
     """The quasi-steady beta (beta' = beta'' = 0) by Newton's method from the small-angle one."""
-    b = lr * kap + (iz * rkd - lf * m * v * v * kap) / lcr
+    b = _beta_path_small_angle(v, kap, rkd, m, iz, lf, lcr, lr)
     for _ in range(8):
         f = _beta_path_ddot(b, 0.0, v, a, kap, rkd, m, iz, lf, lcr, lr)
         db = 1e-7
@@ -669,7 +676,7 @@ def _integrate_beta_path(t, v, a, kap, rkd, m, iz, lf, lr, cr, low):
     w_stiff = math.sqrt(lcr / iz)
     for k in range(n):
         if low[k]:
-            beta[k] = lr * kap[k] + (iz * rkd[k] - lf * m * v[k] * v[k] * kap[k]) / lcr
+            beta[k] = _beta_path_small_angle(v[k], kap[k], rkd[k], m, iz, lf, lcr, lr)
             bdot[k] = 0.0
             bdd[k] = 0.0
             restart = True
