@@ -28,7 +28,6 @@ Nothing here is a test; the figures are in benchmarks/README.md, "Lateral-jerk l
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import platform
 import tempfile
@@ -50,14 +49,13 @@ LIMITS = (20.0, 15.0, 10.0, 5.0)
 
 
 def _with_limit(sc, j: float):
-    return sc.with_(reference=dataclasses.replace(sc.reference, j_lat_max=j))
+    return sc.with_settings({"reference.j_lat_max": j})
 
 
 def _order_of_magnitude() -> None:
     veh = load_vehicle("peugeot406")
     b = Bicycle3DoFParams.from_vehicle(veh)
-    big_l = b.lf + b.lr
-    k_us = b.m / big_l * (b.lr / b.cf - b.lf / b.cr)  # understeer gradient [rad / (m/s^2)]
+    big_l, k_us = b.wheelbase, b.understeer_gradient  # K_us [rad / (m/s^2)]
     rate = ActuatorParams.from_vehicle(veh).max_steer_rate
     print("0. peugeot406, linear 3DoF (C_f / C_r = "
           f"{b.cf:,.0f} / {b.cr:,.0f} N/rad): mean delay of a_y behind the steer; the lateral "

@@ -23,7 +23,6 @@ position error".
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import platform
 import time
 import warnings
@@ -31,16 +30,13 @@ import warnings
 import numpy as np
 
 from flatfree.metrics import DEFAULT_STARTUP_S, compute_metrics
-from flatfree.scenarios import REALISTIC_SENSORS, named_scenario
-from flatfree.sensors import SensorSuite
+from flatfree.scenarios import named_scenario
 from flatfree.simulation import simulate
 
 
 def _with_drift(sc, std: float, tau: float, order: int = 1):
-    ch = dict(REALISTIC_SENSORS.channels)
-    for k in ("x", "y"):
-        ch[k] = dataclasses.replace(ch[k], markov_std=std, markov_tau_s=tau, markov_order=order)
-    return sc.with_(sensors=SensorSuite(ch))
+    return sc.with_settings({f"sensors.{k}.{f}": v for k in ("x", "y") for f, v in (
+        ("markov_std", std), ("markov_tau_s", tau), ("markov_order", order))})
 
 
 def main(argv: list[str] | None = None) -> None:

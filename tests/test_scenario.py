@@ -8,6 +8,7 @@ import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from flatfree.scenario import (
@@ -440,6 +441,16 @@ def test_settings_inf_and_defaults_and_order():
     # no settings: the scenario itself
     base = _rich()
     assert scenario_with_settings(base, []) is base
+
+
+def test_a_mapping_setting_is_held_as_a_toml_file_holds_it():
+    """A value from a mapping is stored as TOML reads it (a numpy number as a float), as if the
+    setting had been read from a file."""
+    sc = Scenario(controller="mfc-natural").with_settings(
+        {"controller_settings.alpha_lat": np.float64(40.0)})
+    got = sc.controller_settings["alpha_lat"]
+    assert got == 40.0 and type(got) is float
+    assert scenario_from_toml(sc.to_toml()) == sc
 
 
 def test_settings_reach_channels_and_free_tables():

@@ -101,15 +101,17 @@ def test_the_real_time_factor_leaves_out_the_compiler(tmp_path):
 
 def test_a_run_too_long_for_the_memory_is_a_value_error():
     """The clock schedule keeps any duration: one that cannot be allocated is refused by name
-    (numpy's MemoryError before)."""
+    (numpy's MemoryError before), as a RunTooLongError (a ValueError) the CLI recognises."""
     from flatfree.scenarios import named_scenario
+    from flatfree.simulation import RunTooLongError
 
+    assert issubclass(RunTooLongError, ValueError)
     sc = named_scenario("paper-noise-free")
     sc = sc.with_(controller_settings={**sc.controller_settings, "schedule": "time"},
                   timing=Timing(duration_s=1e9))
-    with pytest.raises(ValueError, match=r"^timing\.duration_s = 1e\+09 s: the run's sensor "
-                                         r"noise and log, allocated for the whole duration, do "
-                                         r"not fit in memory \(.+\)$"):
+    with pytest.raises(RunTooLongError, match=r"^timing\.duration_s = 1e\+09 s: the run's "
+                                              r"sensor noise and log, allocated for the whole "
+                                              r"duration, do not fit in memory \(.+\)$"):
         simulate(sc)
 
 

@@ -567,19 +567,17 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
 def _simulate_collecting(sc, warned: list[str]):
     """simulate(sc), the library's warnings (e.g. a curve beyond the car's steer lock) appended
     to ``warned`` as text instead of shown; a ValueError passes through, the one of a run too
-    long for the memory (simulate's, naming timing.duration_s) saying where the run ends at the
-    latest and how to make it longer (:func:`_reference_end`)."""
+    long for the memory (simulate's RunTooLongError, naming timing.duration_s) saying where the
+    run ends at the latest and how to make it longer (:func:`_reference_end`)."""
     import warnings
 
-    from flatfree.simulation import simulate
+    from flatfree.simulation import RunTooLongError, simulate
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             return simulate(sc)
-        except ValueError as exc:
-            if "do not fit in memory" not in str(exc):
-                raise
+        except RunTooLongError as exc:
             raise ValueError(f"{exc}; {_reference_end(sc)}") from None
         finally:
             warned.extend(str(w.message) for w in caught)

@@ -632,7 +632,13 @@ def scenario_from_toml(text: str, source: str = "<scenario>", *,
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{source}: malformed TOML: {exc}") from None
-    where = _Where(text, source)
+    return _scenario_from_doc(doc, _Where(text, source), base_dir)
+
+
+def _scenario_from_doc(doc: dict[str, Any], where: _Where,
+                       base_dir: str | Path | None = None) -> Scenario:
+    """The :class:`Scenario` of a scenario document (TOML parsed: plain tables and values);
+    ``where`` names the errors, ``base_dir`` as in :func:`scenario_from_toml`."""
     for key in doc:
         if key not in _TOP_KEYS and key not in _TABLES:
             raise where.error(ValueError(
@@ -838,7 +844,7 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
         try:
             import tomli_w
 
-            tomli_w.dumps({"v": value})
+            value = tomllib.loads(tomli_w.dumps({"v": value}))["v"]  # as a TOML file holds it
         except (TypeError, ValueError):
             raise ValueError(f"setting {st.label}: {dotted} = {value!r}: not a TOML value "
                              "(number, boolean, string, array or table)") from None
@@ -903,8 +909,6 @@ def scenario_with_settings(sc: Scenario,
         of the resulting scenario (NaN is refused wherever a number is checked): the message
         names the setting as written, the field and the value.
     """
-    import tomli_w
-
     items = _settings(settings)
     if not items:
         return sc
@@ -914,12 +918,13 @@ def scenario_with_settings(sc: Scenario,
     if {s.path for s in both} == {("reference", "track"), ("reference", "recording")}:
         raise ValueError(f"settings {', '.join(s.label for s in both)}: give one of "
                          "reference.track and reference.recording, not both")
+    # the scenario as a TOML file holds it: fresh plain tables, each value as read from TOML
+    # (the settings' values too: _assign), validated as a file is, once
     doc = tomllib.loads(scenario_to_toml(sc))
     for st in items:
         _assign(doc, st, explicit)
-    text = tomli_w.dumps(doc)
     try:
-        out = scenario_from_toml(text, source="settings")
+        out = _scenario_from_doc(doc, _Where("", "settings"))  # no text: no line numbers
     except _FieldError as exc:
         raise ValueError(f"{_labels(_culprits(items, exc.field))}: {exc.detail}") from None
     _check_parts(out, items)

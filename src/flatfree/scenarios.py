@@ -84,7 +84,7 @@ import os
 
 import numpy as np
 
-from flatfree.scenario import NOISE_FREE_SUFFIX, ReferenceSpec, Scenario, Timing
+from flatfree.scenario import NOISE_FREE_SUFFIX, ReferenceSpec, Scenario, Timing, _canonical
 from flatfree.sensors import SensorChannel, SensorSuite
 from flatfree.vehicles.params import bundled_name
 
@@ -247,18 +247,18 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
     car = "peugeot406" if vehicle is None else vehicle
     if controller == "mfc-natural":
         settings = natural_settings(car, imu=imu)
-    sc = Scenario(  # checks the car (and holds a bundled one in its own spelling)
-        name=name, vehicle=car, plant="10dof",
-        controller=controller, controller_settings=dict(settings),
-        reference=ReferenceSpec(track=track or DEFAULT_TRACK), timing=timing,
-        sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
-    what = f"paper Section 4: {controller} on the 10DoF {sc.vehicle}"
+    # the car as the scenario holds it (a bundled one in its own spelling)
+    what = f"paper Section 4: {controller} on the 10DoF {_canonical(car, 'vehicle')}"
     if "cf_scale" in settings:
         what += (f", {settings['cf_scale']:g} Cf and {settings['cr_scale']:g} Cr in its model "
                  "(Figure 2)")
     if imu:
         what += " (lateral F from the inertial unit, beyond the paper)"
-    return sc.with_(description=what)
+    return Scenario(
+        name=name, description=what, vehicle=car, plant="10dof",
+        controller=controller, controller_settings=dict(settings),
+        reference=ReferenceSpec(track=track or DEFAULT_TRACK), timing=timing,
+        sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
 
 
 def paper_scenarios(*, noise: bool = True, track: str | None = None) -> dict[str, Scenario]:

@@ -108,7 +108,7 @@ from flatfree.vehicles import VehicleParams, load_vehicle
 
 __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "Prepared",
            "flying_lap_speed",
-           "PythonController", "prepare", "reference_of", "simulate"]
+           "PythonController", "RunTooLongError", "prepare", "reference_of", "simulate"]
 
 #: Half-width of the road used for the left-the-track check where the track gives no width [m].
 DEFAULT_HALF_WIDTH_M = 7.5
@@ -852,6 +852,11 @@ def _python_command(controller, t: float, out) -> tuple[float, float]:
     return tw_f, delta_f
 
 
+class RunTooLongError(ValueError):
+    """A run whose sensor noise and log, allocated for its whole duration, do not fit in memory
+    (:func:`simulate`; the message names ``timing.duration_s``)."""
+
+
 def simulate(sc: Scenario | str, controller: PythonController | None = None) -> Trajectory:
     """Run a scenario in the compiled closed loop; never raises on a failed run (see status).
 
@@ -886,6 +891,12 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
         during a measurement fault is within its documented policy (the counts say how long),
         while for a Python controller ``simulate`` also warns once (``RuntimeWarning``: the
         first step's time and the counts).
+
+    Raises
+    ------
+    ValueError
+        A bad scenario or controller (above); :class:`RunTooLongError` (a ValueError) when the
+        run's sensor noise and log, allocated for its whole duration, do not fit in memory.
     """
     sc = _as_scenario(sc)
     if controller is not None and not callable(getattr(controller, "step", None)):
@@ -914,8 +925,8 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
     except MemoryError as exc:
         d = timing.duration_s
         d = "the run" if d is None else f"timing.duration_s = {d:g} s"
-        raise ValueError(f"{d}: the run's sensor noise and log, allocated for the whole "
-                         f"duration, do not fit in memory ({exc})") from None
+        raise RunTooLongError(f"{d}: the run's sensor noise and log, allocated for the whole "
+                              f"duration, do not fit in memory ({exc})") from None
     act_p = prep.actuators.to_array(timing.plant_dt_s)
     act_s = actuator_state(prep.actuators, timing.plant_dt_s, steer0=prep.steer0)
     patches = np.array([[p.s_start_m, p.s_end_m, p.mu] for p in sc.road.patches],

@@ -236,6 +236,15 @@ def signal_std_estimate(y, noise_std: float) -> float:
     is no bias); the floor keeps the estimate positive for records dominated by noise. ``var``
     is the mean square of the least-squares residual (``1/m``, ``m`` samples).
 
+    The variance floor is in fact ``max(noise_std^2, tiny)``, ``tiny =
+    np.finfo(float).tiny = 2.2e-308`` (units of y^2; the smallest positive normal double), so
+    the estimate is never below ``sqrt(tiny) = 1.5e-154`` (units of y). That second floor
+    exists for ``noise_std = 0`` (or so small that its square underflows) with a residual of
+    exactly 0, e.g. a constant record: the estimate would be 0, which :func:`design_for`
+    refuses (``signal_std`` must be > 0), so :func:`differentiate` would raise on a noise-free
+    constant. It changes nothing else: whenever ``noise_std >= 1.5e-154`` or the residual's
+    mean square exceeds ``tiny``, the result is the formula above.
+
     Parameters
     ----------
     y : array_like, shape (m,)
