@@ -828,3 +828,24 @@ def test_track_reference_through_the_tracks_module_closes_the_loop():
     late = slice(int(5.0 / dt), n)
     err = np.abs(out[late, :3] - np.column_stack([lat.vx, lat.vy, lat.r])[late])
     assert err.max() < 2e-3, err.max(axis=0)
+
+
+def test_an_overflowing_law_raises_naming_the_inputs_and_resets():
+    """A finite measurement of the order of 1e308 overflows the law (the kernel returns an
+    infinite torque): the shell raises instead, naming the inputs and the command, and resets
+    the controller (its integrals held the overflowed values); afterwards it steps as a fresh
+    controller does, bit for bit."""
+    dt, n = 0.01, 300
+    t, x, _u, xd = feasible(DALLARA, [20.0, 0.0, 0.0], dt, n, 60.0, 0.4, 0.01, 0.5)
+    ref = reference_for(DALLARA, t, x, xd)
+    fp = FlatnessControlParams(model=DALLARA, gains=GAINS, dt=dt)
+    c = FlatnessController(fp, ref)
+    for k in range(10):
+        c.step(x[k], t[k])
+    with pytest.raises(ValueError, match=r"FlatnessController\.step\(x = \[1e\+308, 0\.0, 0\.0\]"
+                                         r", t = 0\.1, applied = None\): the command torque = "
+                                         r"-?inf is not finite.*controller was reset"):
+        c.step([1e308, 0.0, 0.0], 0.1)
+    fresh = FlatnessController(fp, ref)
+    for k in range(20):
+        np.testing.assert_array_equal(c.step(x[k], t[k]), fresh.step(x[k], t[k]))

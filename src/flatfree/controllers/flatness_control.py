@@ -134,7 +134,7 @@ from numba import float64, types
 from scipy.interpolate import CubicSpline, make_smoothing_spline
 
 from flatfree._validate import finite, positive, real_array
-from flatfree.controllers._shell import CompiledController
+from flatfree.controllers._shell import CompiledController, nonfinite_command
 from flatfree.controllers.flatness import (
     MAP_MARGIN,
     SAFE_MARGIN,
@@ -1078,6 +1078,15 @@ class FlatnessController(CompiledController):
         -------
         ndarray, shape (2,)
             ``[tw (N m), delta (rad)]`` to hold until the next sample.
+
+        Raises
+        ------
+        ValueError
+            Bad arguments (named), ``t`` outside the reference's time range, or a command that
+            came out non-finite (the law overflowed: finite values of the order of 1e300 in
+            ``x`` or ``applied``); the controller is then reset (:meth:`reset`: its integrals
+            held the overflowed values), as the other controllers' shells do
+            (:func:`flatfree.controllers._shell.nonfinite_command`).
         """
         xa = real_array("x", x)
         if xa.shape != (3,):
@@ -1093,6 +1102,13 @@ class FlatnessController(CompiledController):
         tw, de = flatness_step(self._p, self._s, float(xa[0]), float(xa[1]), float(xa[2]),
                                float(ref[0]), float(ref[1]), float(ref[2]), float(ref[3]),
                                float(ref[4]), float(self._params.dt), ta, da)
+        if not (math.isfinite(tw) and math.isfinite(de)):  # overflowed (Raises)
+            self.reset()
+            which, value = ("torque", tw) if not math.isfinite(tw) else ("steer", de)
+            raise nonfinite_command(
+                type(self).__name__, which, value,
+                {"x": xa.tolist(), "t": t, "applied": None if applied is None else [ta, da]},
+                "the controller was reset (its integrals held the overflowed values)")
         return np.array([tw, de])
 
     @property
