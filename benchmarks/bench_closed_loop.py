@@ -11,8 +11,9 @@ Run as a script (``python benchmarks/bench_closed_loop.py``); it prints the figu
    estimator (``paper-imu``), for the other two designs, on
    the 3DoF plant (the loop's cost without the 10DoF model) and through the Python door (a
    Python controller returning constants: the cost of one Python call per control step);
-3. peak memory of a 10-minute run logged at 100 Hz (target < 300 MB), measured in a fresh
-   subprocess: the peak resident set size (``VmHWM`` of ``/proc/self/status``; elsewhere
+3. peak memory of a 10-minute run logged at 100 Hz (target < 300 MB), of ``paper`` (with the
+   sensors' noise, drawn in advance for the whole run) and ``paper-noise-free``, each measured
+   in a fresh subprocess: the peak resident set size (``VmHWM`` of ``/proc/self/status``; elsewhere
    ``resource.getrusage``, whose ``ru_maxrss`` survives ``execve`` and so starts at the
    *parent's* size: after the timings above it read 214 MB "after the imports" where the
    process had 183 MB) with the baseline after the imports and after a warm-up run beside it,
@@ -49,9 +50,9 @@ from flatfree.scenario import Timing, ReferenceSpec
 from flatfree.simulation import simulate
 imported = peak_mb()
 # warm-up in this process (loads the compiled kernels from numba's cache)
-simulate(named_scenario("paper-noise-free", duration_s=0.5))
+simulate(named_scenario(sys.argv[1], duration_s=0.5))
 base = peak_mb()
-sc = named_scenario("paper-noise-free")
+sc = named_scenario(sys.argv[1])
 # 10 minutes: ten laps of the default track, logged at 100 Hz
 sc = sc.with_(reference=ReferenceSpec(track=sc.reference.track, laps=10),
               timing=Timing(duration_s=600.0, log_dt_s=0.01))
@@ -108,13 +109,14 @@ def main() -> None:
         print(f"  {name:28s} {rtf:8.0f}x real time = {1e3 / rtf:5.2f} us per 1 ms step  "
               f"(prepare+run {wall:.2f} s; {status})")
     print("3. peak memory, 10-minute run logged at 100 Hz (fresh process)")
-    out = subprocess.run([sys.executable, "-c", _MEM_SCRIPT], capture_output=True, text=True,
-                         check=True).stdout.split()
-    imported, base, peak, heap, dur, rows, status = out
-    print(f"  peak RSS {peak} MB (after the imports: {imported} MB; after a warm-up run too, "
-          f"before the run: {base} MB); "
-          f"peak of the run's own allocations (tracemalloc: numpy and Python) {heap} MB "
-          f"(simulated {dur} s, {rows} logged rows, {status})")
+    for name in ("paper", "paper-noise-free"):
+        out = subprocess.run([sys.executable, "-c", _MEM_SCRIPT, name], capture_output=True,
+                             text=True, check=True).stdout.split()
+        imported, base, peak, heap, dur, rows, status = out
+        print(f"  {name}: peak RSS {peak} MB (after the imports: {imported} MB; after a warm-up "
+              f"run too, before the run: {base} MB); peak of the run's own allocations "
+              f"(tracemalloc: numpy and Python) {heap} MB (simulated {dur} s, {rows} logged "
+              f"rows, {status})")
 
 
 if __name__ == "__main__":
