@@ -308,7 +308,7 @@ def test_run_out_is_checked_before_the_run(runner, tmp_path, monkeypatch):
     def never(*a, **k):
         raise AssertionError("the run started before --out was checked")
 
-    monkeypatch.setattr(flatfree.simulation, "simulate", never)
+    monkeypatch.setattr(flatfree.simulation, "prepare", never)  # a run starts with prepare()
     blocker = tmp_path / "a_file"  # a folder cannot be made inside a file (root or not)
     blocker.write_text("")
     out = blocker / "run1"
@@ -429,6 +429,14 @@ def test_vehicle_option_takes_the_cars_natural_settings():
     # the car in any spelling the loader takes is that car, with its tuning and its name
     sc = build_scenario(track="LVMS", vehicle="Dallara_AV21")
     assert sc.vehicle == "dallara_av21" and sc.controller_settings == DALLARA_NATURAL_SETTINGS
+    # a named track scenario with --vehicle is named_scenario(vehicle=...), its description
+    # naming the car (it named the peugeot406)
+    from flatfree.scenarios import named_scenario
+
+    for name in ("paper", "paper-imu", "paper-mismatch-noise-free"):
+        sc = build_scenario(name, vehicle="dallara_av21")
+        assert sc == named_scenario(name, vehicle="dallara_av21")
+        assert "dallara_av21" in sc.description and "peugeot406" not in sc.description
 
 
 # ------------------------------------------------------------------------------------------
@@ -617,10 +625,10 @@ def test_run_out_prints_the_steer_lock_warning_once(runner, tmp_path):
     assert [str(w.message) for w in caught] == []
 
 
-def test_run_builds_the_reference_once_after_the_run(runner, tmp_path, monkeypatch):
+def test_run_builds_the_reference_once(runner, tmp_path, monkeypatch):
     """The note on a run shorter than --duration, the recorded steer and --out's figures share
-    one reference, read without a second prepare(): the reference is built twice, by simulate's
-    prepare() and once after the run (there were four builds, each a whole prepare())."""
+    the reference the run was prepared with: one prepare(), one reference build (there were
+    four builds, each a whole prepare(), then two)."""
     import flatfree.simulation
 
     calls: dict[str, int] = {"prepare": 0, "_reference": 0}
@@ -646,7 +654,7 @@ def test_run_builds_the_reference_once_after_the_run(runner, tmp_path, monkeypat
     assert "note: the run ended at" in res.stderr  # the three users of the reference ran
     assert json.loads(res.stdout)["steer_rms_vs_recorded_deg"] is not None
     assert (tmp_path / "o" / "figures" / "fig4_paths.png").is_file()
-    assert calls == {"prepare": 1, "_reference": 2}
+    assert calls == {"prepare": 1, "_reference": 1}
 
 
 # ------------------------------------------------------------------------------------------
@@ -742,6 +750,9 @@ def test_demo_set_changes_every_run_and_refuses_what_differs_between_them(runner
     # spelled with spaces, as the library reads it (reference.track for every run)
     with pytest.raises(InputError, match="reference.track cannot be set"):
         _demo_tasks(**kw, settings=["reference . track = Monza"])
+    # or through the table that holds it (it took every run, the recorded ones too, to Monza)
+    with pytest.raises(InputError, match="reference.track cannot be set"):
+        _demo_tasks(**kw, settings=['reference={track = "Monza"}'])
     # a malformed setting: the library's message, once (not once per run)
     with pytest.raises(InputError, match=r"^setting seed: expected FIELD=VALUE, e.g. "
                                          r"reference.j_lat_max=15$"):

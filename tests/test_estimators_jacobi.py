@@ -225,7 +225,7 @@ def test_rule_respects_max_delay_and_reacts_to_noise():
 @pytest.mark.parametrize(
     "kw, text",
     [
-        (dict(n=2, dt=1e-3, order=1, N=1), "n = 2: must be >= 3"),
+        (dict(n=2, dt=1e-3, order=1, N=1), "n = 2: must be an integer >= 3"),
         (dict(n=10, dt=0.0), "dt = 0.0 s: must be > 0"),
         (dict(n=10, dt=True), "dt = True s: expected a real number"),
         (dict(n=10, dt=1e-3, kappa=-1.0), "kappa = -1.0: Jacobi exponent must be > -1"),
@@ -234,7 +234,7 @@ def test_rule_respects_max_delay_and_reacts_to_noise():
         (dict(n=10, dt=1e-3, lag=0.5), "lag = 0.5 s: must lie in [0, T = 0.009000000000000001] s"),
         (dict(n=10, dt=1e-3, lag="fast"), "lag = 'fast': expected a time in s or \"exact\""),
         (dict(n=10, dt=1e-3, N=1, lag=True), "lag = True s: expected a real number"),
-        (dict(n=10, dt=1e-3, order=-1), "order = -1: must be >= 0"),
+        (dict(n=10, dt=1e-3, order=-1), "order = -1: must be an integer >= 0"),
         (dict(n=30, dt=1e-3, order=6, N=7), "order + N = 13: the fit degree must be <= 12"),
     ],
 )
@@ -325,7 +325,8 @@ def test_signal_std_estimate_stays_positive_without_variation_or_noise():
         (np.ones(10), True, "noise_std = True (signal units): expected a real number"),
         (np.ones(2), 0.1, "y: expected a 1-D record of at least 3 samples, got shape (2,)"),
         (np.ones((3, 3)), 0.1, "y: expected a 1-D record of at least 3 samples, got shape (3, 3)"),
-        (np.r_[1.0, 2.0, np.inf, 4.0], 0.1, "y[2] = inf: samples must be finite"),
+        (np.r_[1.0, 2.0, np.inf, 4.0], 0.1,
+         "y[2] = inf: non-finite sample (nonfinite = 'raise')"),
     ],
 )
 def test_signal_std_estimate_refuses_bad_input(y, s, text):

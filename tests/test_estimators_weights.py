@@ -17,10 +17,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flatfree.estimators import (
+    FEstimator,
     JacobiDesign,
     denoising_weights,
     derivative_weights,
+    design_for,
+    estimate_f,
     f_estimator_weights,
+    fir_new,
 )
 
 
@@ -270,21 +274,55 @@ def test_denoiser_equals_its_closed_form_and_the_sampled_kernel_difference(n):
     "call, text",
     [
         (lambda: f_estimator_weights(3, 10, 0.01), "nu = 3: must be 1 or 2"),
-        (lambda: f_estimator_weights(1, 1, 0.01), "n = 1: must be >= 2"),
-        (lambda: f_estimator_weights(2, 2, 0.01), "n = 2: must be >= 3"),
+        (lambda: f_estimator_weights(1, 1, 0.01), "n = 1: must be an integer >= 2"),
+        (lambda: f_estimator_weights(2, 2, 0.01), "n = 2: must be an integer >= 3"),
         (lambda: f_estimator_weights(1, 5, 0.0), "dt = 0.0 s: must be > 0"),
         (lambda: f_estimator_weights(1, 5, -1e-3), "dt = -0.001 s: must be > 0"),
         (lambda: f_estimator_weights(1, 5, float("nan")), "dt = nan s: must be finite"),
         (lambda: f_estimator_weights(1, 5, "0.01"), "dt = '0.01' s: expected a real number"),
         (lambda: f_estimator_weights(1, 5, True), "dt = True s: expected a real number"),
-        (lambda: f_estimator_weights(1, 5.0, 0.01), "n = 5.0: expected an integer >= 2"),
-        (lambda: derivative_weights(1, 0.01), "n = 1: must be >= 2"),
+        (lambda: f_estimator_weights(1, 5.0, 0.01), "n = 5.0: must be an integer >= 2"),
+        (lambda: derivative_weights(1, 0.01), "n = 1: must be an integer >= 2"),
         (lambda: derivative_weights(5, [0.01]), "dt = [0.01] s: expected a real number"),
         (lambda: derivative_weights(5, 0.01, order=3),
          "order = 3: must be 1 or 2 (use JacobiDesign for higher orders)"),
-        (lambda: denoising_weights(1), "n = 1: must be >= 2"),
+        (lambda: denoising_weights(1), "n = 1: must be an integer >= 2"),
     ],
 )
 def test_bad_arguments_raise_valueerror_naming_the_value(call, text):
     with pytest.raises(ValueError, match=f"^{re.escape(text)}$"):
         call()
+
+
+@pytest.mark.parametrize(
+    "call, text",
+    [
+        (lambda: f_estimator_weights(1, 10.0, 0.01), "n = 10.0: must be an integer >= 2"),
+        (lambda: f_estimator_weights(1, np.float64(10), 0.01),
+         "n = np.float64(10.0): must be an integer >= 2"),
+        (lambda: f_estimator_weights(1, True, 0.01), "n = True: must be an integer >= 2"),
+        (lambda: f_estimator_weights(1, "10", 0.01), "n = '10': must be an integer >= 2"),
+        (lambda: derivative_weights(10.0, 0.01), "n = 10.0: must be an integer >= 2"),
+        (lambda: denoising_weights(10.0), "n = 10.0: must be an integer >= 2"),
+        (lambda: JacobiDesign(n=10.0, dt=0.01), "n = 10.0: must be an integer >= 2"),
+        (lambda: JacobiDesign(n=10, dt=0.01, N=1.0), "N = 1.0: must be an integer >= 0"),
+        (lambda: JacobiDesign(n=10, dt=0.01, order=1.0), "order = 1.0: must be an integer >= 0"),
+        (lambda: design_for(1e-3, bandwidth_hz=2.0, noise_std=0.01, signal_std=0.7,
+                            order=1.0), "order = 1.0: must be an integer >= 0"),
+        (lambda: design_for(1e-3, bandwidth_hz=2.0, noise_std=0.01, signal_std=0.7,
+                            max_taps=100.0), "max_taps = 100.0: must be an integer >= 3"),
+        (lambda: estimate_f(np.zeros(5), np.zeros(5), nu=1, n=3.0, dt=0.01, alpha=1.0),
+         "n = 3.0: must be an integer >= 2"),
+        (lambda: FEstimator(1, 3.0, 0.01, 1.0), "n = 3.0: must be an integer >= 2"),
+        (lambda: fir_new(np.ones(3), full=3.0), "full = 3.0: must be an integer >= 1"),
+        (lambda: fir_new(np.ones(3), full="3"), "full = '3': must be an integer >= 1"),
+    ],
+)
+def test_integer_arguments_are_integers_everywhere(call, text):
+    """One rule for every sample count and derivative order of the estimators (the shared
+    whole(strict=True)): an integral float such as 10.0 is refused as n is, by name."""
+    with pytest.raises(ValueError, match=f"^{re.escape(text)}$"):
+        call()
+    # the integers themselves, NumPy's too, give the same weights bit for bit
+    np.testing.assert_array_equal(f_estimator_weights(2, np.int64(10), 0.01)[0],
+                                  f_estimator_weights(2, 10, 0.01)[0])

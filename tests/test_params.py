@@ -49,14 +49,15 @@ def test_unknown_name_lists_valid_ones():
 
 
 def test_bundled_name_is_the_loaders_lookup(tmp_path, monkeypatch):
-    """One name lookup (case-insensitive) that the loaders use and the scenario spells its car
-    with; a file of that name (or a .toml path) is read first."""
+    """One name lookup (case-insensitive, surrounding blanks ignored, as the tracks') that the
+    loaders use and the scenario spells its car with; a file of that name (or a .toml path) is
+    read first."""
     from flatfree.vehicles.params import bundled_name
 
     assert bundled_name("Dallara_AV21") == "dallara_av21"
     assert bundled_name("PACEJKA2006_205_60r15", "tire") == "pacejka2006_205_60R15"
     assert bundled_name("peugeot406", "tire") is None
-    for other in ("trabant", "peugeot406.toml", " peugeot406", 406, None):
+    for other in ("trabant", "peugeot406.toml", " peugeot406.toml", 406, None, ""):
         assert bundled_name(other) is None, other
     with pytest.raises(ValueError, match=r"^kind = 'car': must be one of vehicle, tire$"):
         bundled_name("peugeot406", "car")
@@ -277,3 +278,17 @@ def test_malformed_toml_names_the_file(tmp_path):
     p = _write(tmp_path, "name = \n")
     with pytest.raises(ValueError, match="malformed TOML"):
         load_vehicle(p)
+
+
+def test_vehicle_and_tire_names_ignore_surrounding_blanks():
+    """The vehicle lookup is the tracks' (flatfree._names): ``" peugeot406"`` used to be an
+    "unknown vehicle"; a ``.toml`` suffix stays a path (read as a file, not a name)."""
+    from flatfree.vehicles.params import bundled_name
+
+    assert bundled_name(" peugeot406") == "peugeot406"
+    assert bundled_name("\tDallara_AV21 \n") == "dallara_av21"
+    assert bundled_name(" Pacejka2006_205_60r15 ", "tire") == "pacejka2006_205_60R15"
+    assert load_vehicle(" peugeot406") == load_vehicle("peugeot406")
+    assert load_tire(" commonroad ") == load_tire("commonroad")
+    with pytest.raises(ValueError, match=r"^tire  peugeot406\.toml: file not found: "):
+        load_tire(" peugeot406.toml")

@@ -255,6 +255,37 @@ def test_reference_of_is_the_reference_prepare_builds(name):
         assert reference_of(named_scenario(name))["vx"].max() > b["vx"].max() + 1.0
 
 
+def test_simulate_prepared_is_simulate_and_leaves_prep_as_built():
+    """simulate_prepared(prepare(sc)) is simulate(sc) bit for bit (noise, faults' NaN too), and
+    runs on copies of prep's controller arrays: a second run of the same prep is the same
+    trajectory; a Python controller must be the one prepare() was given."""
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare, simulate_prepared
+
+    sc = named_scenario("paper", duration_s=3.0)
+    ref = simulate(sc).to_columns()
+    prep = prepare(sc)
+    state = [a.copy() for a in (prep.controller.s_lon, prep.controller.s_lat)]
+    for _ in range(2):
+        got = simulate_prepared(prep).to_columns()
+        assert got.keys() == ref.keys()
+        for k in ref:
+            np.testing.assert_array_equal(got[k], ref[k], err_msg=k)
+    np.testing.assert_array_equal(prep.controller.s_lon, state[0])
+    np.testing.assert_array_equal(prep.controller.s_lat, state[1])
+
+    class Hold:
+        def step(self, t, measurement, reference, applied):
+            return 0.0, 0.0
+
+    with pytest.raises(ValueError, match="same Python controller"):
+        simulate_prepared(prep, Hold())
+    with pytest.raises(ValueError, match="same Python controller"):
+        simulate_prepared(prepare(sc, python_controller=Hold()))
+    with pytest.raises(ValueError, match=r"prep = 'paper': expected a Prepared"):
+        simulate_prepared("paper")
+
+
 def test_path_schedule_reads_the_reference_at_the_measured_arc_length():
     """With exact sensors the controller's reference time is the reference's time at the car's
     own arc length (the loop's compiled interpolation vs np.interp: rounding only)."""

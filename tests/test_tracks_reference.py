@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -461,6 +462,47 @@ def test_reference_argument_errors():
     with pytest.raises(KeyError, match="no signal 'speed'"):
         ref["speed"]
     assert set(ref.names) >= {"vx", "r_dot", "e_y_ref_ddot", "kappa"}
+
+
+@pytest.mark.parametrize(
+    "offset, text",
+    [
+        ("1.5", "lateral_offset = '1.5' m: expected real numbers, got dtype <U3"),
+        (True, "lateral_offset = True m: expected real numbers, got dtype bool"),
+        (None, "lateral_offset = None m: expected real numbers, got dtype object"),
+        (math.inf, "lateral_offset = inf m: must be finite"),
+        ([0.0, None, 1.0],
+         "lateral_offset = [0.0, None, 1.0] m: expected real numbers, got dtype object"),
+        ([[0.0, 1.0], [2.0]], ("lateral_offset [m]: expected an array of real numbers of one "
+                               "shape, got [[0.0, 1.0], [2.0]]")),
+        (lambda s: "1", "lateral_offset(s) = '1' m: expected real numbers, got dtype <U1"),
+    ],
+)
+def test_lateral_offset_takes_real_numbers_only(offset, text):
+    """lateral_offset on the shared validators, as Track.offset: "1.5" and True used to pass
+    as float() took them (Track.offset("1.5") refused), a ragged list with numpy's bare
+    message."""
+    with pytest.raises(ValueError, match=f"^{re.escape(text)}$"):
+        T.make_reference(T.circle_track(30.0), 10.0, lateral_offset=offset, dt=0.1)
+    with pytest.raises(ValueError, match="^d = '1.5': expected real numbers"):
+        T.circle_track(30.0).offset("1.5")
+
+
+def test_lateral_offset_numbers_of_any_kind_give_the_same_reference():
+    """An int, a NumPy number and a 0-d array are the float constant, bit for bit; a list or an
+    int array of node values are the float64 array's."""
+    circle = T.circle_track(30.0)
+
+    def table(offset):
+        return T.make_reference(circle, 10.0, lateral_offset=offset, dt=0.1).table
+
+    want = table(2.0)
+    for same in (2, np.float64(2.0), np.int64(2), np.array(2.0)):
+        np.testing.assert_array_equal(table(same), want)
+    nodes = np.round(np.cos(2 * np.pi * circle.s / circle.length))  # whole metres: -1, 0, 1
+    want = table(nodes)
+    for same in (list(nodes), nodes.astype(np.int64), lambda s: nodes):
+        np.testing.assert_array_equal(table(same), want)
 
 
 def test_make_reference_loads_a_track_given_by_name_or_path(tmp_path):

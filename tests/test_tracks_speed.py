@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -125,3 +126,36 @@ def test_speed_limits_validation():
     with pytest.raises(ValueError, match="zero speed"):
         T.speed_profile(T.straight_track(10.0), v_start=0.0, v_end=0.0,
                         limits=T.SpeedLimits(v_max=1e-200))
+
+
+@pytest.mark.parametrize(
+    "kw, text",
+    [
+        (dict(v_start="3"), "v_start = '3' m/s: expected a real number"),
+        (dict(v_end=True), "v_end = True m/s: expected a real number"),
+        (dict(v_start=np.True_), "v_start = np.True_ m/s: expected a real number"),
+        (dict(v_start=[1.0]), "v_start = [1.0] m/s: expected a real number"),
+        (dict(v_end=1 + 0j), "v_end = (1+0j) m/s: expected a real number"),
+        (dict(v_start=-1.0), "v_start = -1.0 m/s: must be >= 0"),
+        (dict(v_end=math.inf), "v_end = inf m/s: must be finite"),
+        (dict(v_start=math.nan), "v_start = nan m/s: must be finite"),
+    ],
+)
+def test_bad_end_speeds_are_refused_by_name(kw, text):
+    """v_start / v_end on the shared validator: text, booleans and lists used to pass as
+    float() took them ("3" as 3.0, True as 1.0) or fail with a bare TypeError."""
+    with pytest.raises(ValueError, match=f"^{re.escape(text)}$"):
+        T.speed_profile(T.straight_track(50.0), **kw)
+
+
+def test_end_speeds_none_is_free_and_integers_are_their_floats():
+    """None (the default) leaves an end free; an int or a NumPy number is its float, bit for
+    bit."""
+    trk = T.straight_track(200.0)
+    free = T.speed_profile(trk)
+    np.testing.assert_array_equal(T.speed_profile(trk, v_start=None, v_end=None).v, free.v)
+    a = T.speed_profile(trk, v_start=3, v_end=np.int64(0))
+    b = T.speed_profile(trk, v_start=np.float64(3.0), v_end=0.0)
+    np.testing.assert_array_equal(a.v, b.v)
+    np.testing.assert_array_equal(a.t, b.t)
+    assert a.v[0] == 3.0 and a.v[-1] == 0.0

@@ -74,3 +74,15 @@ def test_whole_keeps_large_integers_exact_and_refuses_what_float_cannot_hold():
         with pytest.raises(ValueError, match=r"must be an integer >= 2$"):
             whole("n", bad, 2)
     assert as_real(10**400) is None  # beyond float's range: not refused by an OverflowError
+
+
+def test_whole_strict_takes_integers_only():
+    """strict (the estimators' counts and orders): an integral float is refused too, with the
+    same message; integers, NumPy's and beyond float's range too, pass as ints."""
+    from flatfree._validate import whole
+
+    assert whole("n", 2**60 + 1, 0, strict=True) == 2**60 + 1
+    assert type(whole("n", np.int64(7), 2, strict=True)) is int
+    for bad in (100.0, np.float64(3.0), True, np.True_, 1, 2.5, "3", math.nan, None):
+        with pytest.raises(ValueError, match=r"^n = .+ samples: must be an integer >= 2$"):
+            whole("n", bad, 2, "samples", strict=True)

@@ -108,13 +108,16 @@ def in_range(name: str, value, lo: float, hi: float, unit: str = "") -> float:
     return v
 
 
-def whole(name: str, value, lo: int, unit: str = "") -> int:
+def whole(name: str, value, lo: int, unit: str = "", *, strict: bool = False) -> int:
     """An integer >= ``lo`` (an integral float such as a TOML ``100.0`` too); text, booleans,
-    NaN, infinity and fractions raise."""
+    NaN, infinity and fractions raise. ``strict``: only an int or a NumPy integer, an integral
+    float raises too (the estimators' sample counts and orders)."""
     if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)):
         if value < lo:  # an integer as it is, however large (a float would round it)
             raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")
         return int(value)
+    if strict:
+        raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")
     v = as_real(value)
     if v is None or not math.isfinite(v) or v != int(v) or v < lo:
         raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")

@@ -8,7 +8,8 @@ They are compiled with ``forceinline`` so that LLVM inlines them into the caller
 evaluate 4 lanes at once in AVX2/AVX-512 registers (``flatfree.tires.mf_combined4``, the 10DoF
 model's tyres). They are private helpers for hot kernels; everywhere else use ``math``.
 :func:`no_refcount` gives the compile options of a kernel that needs no reference counting
-(allocation-free kernels of the 10DoF model and the closed loop).
+(allocation-free kernels of the 10DoF model and the closed loop); :func:`all_finite` is the
+models' and the loop's check of a state vector, compiled that way.
 
 Methods (the classic schemes of [Muller] ch. 11 and [C&W]; coefficients computed here)
 --------------------------------------------------------------------------------------
@@ -71,7 +72,7 @@ from numba.core.errors import RequireLiteralValue
 from numba.extending import intrinsic
 from numba.np.arrayobj import load_item
 
-__all__ = ["atan", "sin", "cos", "exp", "as_tuple", "no_refcount"]
+__all__ = ["atan", "sin", "cos", "exp", "as_tuple", "no_refcount", "all_finite"]
 
 # forceinline: LLVM inlines these into the calling loop (a call would stop vectorisation);
 # error_model="numpy": divisions have no zero check (a branch), x/0 gives inf as in IEEE 754;
@@ -290,3 +291,21 @@ def exp(x: float) -> float:
     n1 = ni >> 1  # 2^n = 2^n1 2^n2 with both factors normal for n in [-1076, 1024]
     y = (er * _pow2(n1)) * _pow2(ni - n1)
     return y if x == x else x  # noqa: PLR0124  NaN in, NaN out (the NaN test above)
+
+
+# A kernel that allocates nothing and only reads the array it is given (no_refcount above):
+# callable from kernels compiled with and without reference counting; forceinline lets LLVM fold
+# the loop into the caller's step loop.
+_FJIT = no_refcount(dict(cache=True, nogil=True, forceinline=True))
+
+
+@njit(**_FJIT)
+def all_finite(x) -> bool:
+    """Every entry of the 1-d array ``x`` finite (no NaN, no inf); ``True`` for an empty array.
+
+    Stops at the first non-finite entry.
+    """
+    for i in range(x.shape[0]):  # noqa: SIM110  a loop: compiled, no generator
+        if not math.isfinite(x[i]):
+            return False
+    return True

@@ -483,23 +483,28 @@ def _positive_float(ctx, param, value):
     return value
 
 
-def _load_base(spec: str | None, recording: str | None):
-    """The scenario a run starts from: a TOML file, a named scenario, or the default."""
+def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
+    """The scenario a run starts from: a TOML file, a named scenario, or the default; and
+    whether ``vehicle`` is in it already: a named track scenario takes it from
+    ``named_scenario(vehicle=...)`` (the car in its description, its natural-output tuning)."""
     from flatfree.scenario import load_scenario
 
     if spec is None:
-        return _named("recorded" if recording is not None else "paper")
-    p = Path(spec)
-    if p.is_file() or spec.lower().endswith(".toml"):
-        try:
-            return load_scenario(p)
-        except ValueError as exc:
-            raise _fail(str(exc)) from None
-    names = _scenarios_module().SCENARIO_NAMES
-    if spec in names:
-        return _named(spec)
-    raise _fail(f"unknown scenario {spec!r}: give a TOML file, or a named scenario: "
-                f"{', '.join(names)}")
+        spec = "recorded" if recording is not None else "paper"
+    else:
+        p = Path(spec)
+        if p.is_file() or spec.lower().endswith(".toml"):
+            try:
+                return load_scenario(p), False
+            except ValueError as exc:
+                raise _fail(str(exc)) from None
+    mod = _scenarios_module()
+    if spec not in mod.SCENARIO_NAMES:
+        raise _fail(f"unknown scenario {spec!r}: give a TOML file, or a named scenario: "
+                    f"{', '.join(mod.SCENARIO_NAMES)}")
+    if vehicle is not None and not spec.startswith("recorded"):  # the recorded: their own car
+        return _named(spec, vehicle=vehicle), True
+    return _named(spec), False
 
 
 def build_scenario(spec: str | None = None, *, controller: str | None = None,
@@ -522,11 +527,11 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     ``Monza``; :class:`~flatfree.scenario.Scenario`). Raises :class:`InputError` (exit 2) on
     bad input.
     """
-    from flatfree.scenario import Scenario, scenario_with_settings
+    from flatfree.scenario import scenario_with_settings
 
     if track is not None and recording is not None:
         raise _fail("give --track or --recording, not both")
-    sc: Scenario = _load_base(spec, recording)
+    sc, with_vehicle = _load_base(spec, recording, vehicle)
     try:
         changes: dict[str, Any] = {}
         ctrl_settings = dict(sc.controller_settings)
@@ -544,7 +549,9 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if recording is not None:
             changes["reference"] = dataclasses.replace(sc.reference, track=None,
                                                        recording=recording)
-        if vehicle is not None:
+        if vehicle is not None and not with_vehicle:
+            # a file's or a recorded scenario's car: the same change (tuning as below), the
+            # description is the file's own
             changes["vehicle"] = vehicle
             natural = _scenarios_module().natural_settings
             if changes.get("controller", sc.controller) == "mfc-natural" and vehicle != sc.vehicle:
@@ -565,56 +572,54 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
 
 
 def _simulate_collecting(sc, warned: list[str]):
-    """simulate(sc), the library's warnings (e.g. a curve beyond the car's steer lock) appended
-    to ``warned`` as text instead of shown; a ValueError passes through, the one of a run too
-    long for the memory (simulate's RunTooLongError, naming timing.duration_s) saying where the
-    run ends at the latest and how to make it longer (:func:`_reference_end`)."""
+    """simulate(sc) and the reference it ran on, ``(trajectory, reference)`` (built once:
+    prepare, then the run), the library's warnings (e.g. a curve beyond the car's steer lock)
+    appended to ``warned`` as text instead of shown; a ValueError passes through, the one of a
+    run too long for the memory (simulate's RunTooLongError, naming timing.duration_s) saying
+    where the run ends at the latest and how to make it longer (:func:`_reference_end`)."""
     import warnings
 
-    from flatfree.simulation import RunTooLongError, simulate
+    from flatfree.simulation import RunTooLongError, prepare, simulate_prepared
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        prep = None
         try:
-            return simulate(sc)
+            prep = prepare(sc)
+            return simulate_prepared(prep), prep.reference
         except RunTooLongError as exc:
-            raise ValueError(f"{exc}; {_reference_end(sc)}") from None
+            raise ValueError(f"{exc}; {_reference_end(sc, prep.reference)}") from None
         finally:
             warned.extend(str(w.message) for w in caught)
 
 
-def _reference_end(sc, ref=None) -> str:
-    """Where a run ends at the latest: the end of its reference path, how long the reference
-    ``ref`` (None: built here, if it can be) lasts, and the setting that makes it longer
-    (reference.laps on a closed track)."""
-    from flatfree.simulation import reference_of
-
+def _reference_end(sc, ref) -> str:
+    """Where a run ends at the latest: the end of its reference path, how long its reference
+    ``ref`` lasts, and the setting that makes it longer (reference.laps on a closed track)."""
     spec = sc.reference
-    if ref is None:
-        with contextlib.suppress(ValueError, MemoryError):  # then said without its length
-            ref = reference_of(sc)
-    lasts = "" if ref is None else f", {ref.duration:.1f} s"
+    lasts = f", {ref.duration:.1f} s"
     if spec.recording is not None:
         return (f"a run ends where its reference ends (the recording {spec.recording}{lasts}), "
                 "and no setting makes a recording longer")
-    lasts += "" if ref is None else " at its speed profile"
-    what = f"{spec.laps} lap{'s' if spec.laps != 1 else ''} of {spec.track}{lasts}"
+    what = (f"{spec.laps} lap{'s' if spec.laps != 1 else ''} of {spec.track}{lasts} at its "
+            "speed profile")
     more = ("for a longer run set reference.laps (--set reference.laps=N)"
-            if ref is not None and ref.path.closed else "an open path cannot be driven longer")
+            if ref.path.closed else "an open path cannot be driven longer")
     return f"a run ends where its reference path ends ({what}); {more}"
 
 
 def _simulate(sc):
-    """simulate(sc); a ValueError (bad input, unsupported feature) becomes exit code 2, and the
-    library's warnings are printed as one line each on stderr, ``warning: ...``."""
+    """:func:`_simulate_collecting` (trajectory, reference); a ValueError (bad input,
+    unsupported feature) becomes exit code 2, and the library's warnings are printed as one
+    line each on stderr, ``warning: ...``."""
     warned: list[str] = []
     try:
-        tr = _simulate_collecting(sc, warned)
+        out = _simulate_collecting(sc, warned)
     except ValueError as exc:
         raise _fail(f"scenario {sc.name!r}, controller {sc.controller}: {exc}") from None
     for w in warned:
         _err(f"warning: {w}")
-    return tr
+    return out
 
 
 def _time_axis(tr) -> np.ndarray:
@@ -740,7 +745,6 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
     """
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult, format_table
-    from flatfree.simulation import reference_of
 
     if with_csv and out_dir is None:
         raise _fail("--csv writes into the --out folder: give --out DIR too")
@@ -753,23 +757,21 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
     if noise and not any(c.noise_std > 0 for c in sc.sensors.channels.values()):
         _err(f"note: --noise has no effect: scenario {sc.name!r} gives no sensor a noise_std")
     with _out_dir(out_dir):
-        tr = _simulate(sc)
-        # the run's reference for the notes, the recorded steer and the figures: built once
-        # (simulate() does not return it), quietly (the run printed its warnings), when needed
-        reference = functools.cache(functools.partial(reference_of, sc))
+        # the reference the run was built on, for the notes, the recorded steer and the figures
+        tr, reference = _simulate(sc)
         _note_short_or_capped(sc, tr, reference)
         m = compute_metrics(tr, startup_s=sc.timing.startup_s)
         extra: dict[str, float] = {}
         rec = None
         if sc.reference.recording is not None:
-            (rec,) = recorded_steer_of([tr], sc, reference())
+            (rec,) = recorded_steer_of([tr], sc, reference)
             extra["steer_rms_vs_recorded_deg"] = steer_rms_vs_recorded_deg(
                 tr, rec, sc.timing.startup_s)
         result = RunResult(label=sc.controller, scenario=sc, trajectory=tr, metrics=m,
                            extra=extra)
         payload = _run_json(sc, tr, m, extra)
         if out_dir is not None:
-            _write_run(out_dir, result, payload, reference(), rec)
+            _write_run(out_dir, result, payload, reference, rec)
             if with_csv:
                 tr.to_csv(out_dir / "trajectory.csv")
     if as_json:
@@ -789,16 +791,16 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         sys.exit(1)
 
 
-def _note_short_or_capped(sc, tr, reference: Callable[[], Any]) -> None:
+def _note_short_or_capped(sc, tr, reference) -> None:
     """Notes on stderr when the run's length explains its results: it ended at the end of the
     reference path before the requested duration, or within the start-up interval that the
-    metrics leave out (every metric then null). ``reference()``: the run's reference."""
+    metrics leave out (every metric then null). ``reference``: the run's reference."""
     t = tr.time
     requested = sc.timing.duration_s
     if (tr.completed and requested is not None and t.size
             and t[-1] + sc.timing.log_dt_s < requested - 1e-9):
         _err(f"note: the run ended at {t[-1]:.2f} s, not at the requested duration of "
-             f"{requested:g} s (timing.duration_s): {_reference_end(sc, reference())}")
+             f"{requested:g} s (timing.duration_s): {_reference_end(sc, reference)}")
     startup = sc.timing.startup_s
     if not np.any(t >= (t[0] if t.size else 0.0) + startup):
         end = f"its log ends at {t[-1]:.2f} s" if t.size else "it logged nothing"
@@ -892,17 +894,18 @@ def _run_figures(runs, ref_xy, recorded_steer=None):
 # demo
 # ------------------------------------------------------------------------------------------
 def _try_run(label: str, sc, warned: list[str]):
-    """A RunResult: the run, or why it could not be made (a ValueError of the engine); the
-    library's warnings of the run are appended to ``warned``."""
+    """``(RunResult, reference)``: the run and the reference it ran on, or why it could not be
+    made (a ValueError of the engine) and None; the library's warnings of the run are appended
+    to ``warned``."""
     from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult
 
     try:
-        tr = _simulate_collecting(sc, warned)
+        tr, ref = _simulate_collecting(sc, warned)
     except ValueError as exc:
-        return RunResult(label=label, scenario=sc, error=str(exc))
+        return RunResult(label=label, scenario=sc, error=str(exc)), None
     m = compute_metrics(tr, startup_s=sc.timing.startup_s)
-    return RunResult(label=label, scenario=sc, trajectory=tr, metrics=m)
+    return RunResult(label=label, scenario=sc, trajectory=tr, metrics=m), ref
 
 
 #: Fields ``demo --set`` refuses: they differ between the demo's runs (names, three
@@ -927,8 +930,9 @@ def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
             path = setting_path(s)
         except ValueError as exc:
             raise _fail(str(exc)) from None
-        fixed = next((f for f in DEMO_FIXED_FIELDS if path == f or path.startswith(f + ".")),
-                     None)
+        # the field, a part of it, or a table holding it (reference={track = "Monza"})
+        fixed = next((f for f in DEMO_FIXED_FIELDS if path == f or path.startswith(f + ".")
+                      or f.startswith(path + ".")), None)
         if fixed is not None:
             raise _fail(f"--set {s}: demo runs several controllers, cars and references, so "
                         f"{fixed} cannot be set for all of them; use `flatfree run` (or demo "
@@ -1039,15 +1043,19 @@ def _demo_runs(out_dir: Path, tasks, ref_xy, settings: Sequence[str], progress) 
     bar = tqdm(total=len(tasks) + 2, disable=not show, file=sys.stderr, unit="step",
                desc="flatfree demo")
     warned: list[str] = []
+    rec_ref = None  # the recorded runs' reference (they share the recording), as built by one
     for group, label, sc in tasks:
         bar.set_postfix_str(f"{group}: {label}")
         task_warned: list[str] = []
-        results[group].append(_try_run(label, sc, task_warned))
+        result, ref = _try_run(label, sc, task_warned)
+        results[group].append(result)
+        if group == "recorded" and ref is not None:
+            rec_ref = ref
         warned.extend(f"{group}, {label}: {w}" for w in task_warned)
         bar.update()
     ran = [r for r in results["recorded"] if r.trajectory is not None]
     rec_steer = dict(zip([r.label for r in ran], recorded_steer_of(
-        [r.trajectory for r in ran], ran[0].scenario) if ran else [], strict=True))
+        [r.trajectory for r in ran], ran[0].scenario, rec_ref) if ran else [], strict=True))
     results["recorded"] = [
         dataclasses.replace(r, extra={"steer_rms_vs_recorded_deg": steer_rms_vs_recorded_deg(
             r.trajectory, rec_steer[r.label], r.scenario.timing.startup_s)})

@@ -65,7 +65,7 @@ import numpy as np
 from numba import njit
 
 from flatfree._validate import as_real
-from flatfree._vecmath import no_refcount
+from flatfree._vecmath import all_finite, no_refcount
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers.flatness import singular_speed
 from flatfree.controllers.intelligent import IST
@@ -108,7 +108,8 @@ from flatfree.vehicles import VehicleParams, load_vehicle
 
 __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "Prepared",
            "flying_lap_speed",
-           "PythonController", "RunTooLongError", "prepare", "reference_of", "simulate"]
+           "PythonController", "RunTooLongError", "prepare", "reference_of", "simulate",
+           "simulate_prepared"]
 
 #: Half-width of the road used for the left-the-track check where the track gives no width [m].
 DEFAULT_HALF_WIDTH_M = 7.5
@@ -194,15 +195,6 @@ def _mu_at(s, base, patches, length, closed):
         if patches[i, 0] <= s < patches[i, 1]:
             mu = patches[i, 2]
     return mu
-
-
-@njit(**_JIT_LOOP)
-def _all_finite(x) -> bool:
-    """Every entry of the state ``x`` finite (a loop: compiled, no generator)."""
-    for i in range(x.shape[0]):  # noqa: SIM110
-        if not math.isfinite(x[i]):
-            return False
-    return True
 
 
 @njit(**_JIT_LOOP)
@@ -339,7 +331,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         t = k * dt
         for i in range(6):
             truth[i] = x[i] if i < 3 else x[off + i - 3]
-        if not _all_finite(x):
+        if not all_finite(x):
             status = 2
             break
         seg_old = seg
@@ -472,7 +464,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                 x[i] = xn[i]
     else:
         k = n_steps
-        if not _all_finite(x):  # the last plant step's result, which no step above looked at
+        if not all_finite(x):  # the last plant step's result, which no step above looked at
             status = 2
     ls[_LS_SEG] = seg
     ls[_LS_SEG_M] = seg_m
@@ -722,7 +714,8 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
         # profile; a longer requested duration is capped at twice that horizon, far beyond any
         # car that follows the profile (the loop's sensor noise, 8 floats a control step, and
         # its log, len(LOG) = 27 floats a logged sample, are allocated for the whole duration:
-        # 0.3 GB for an hour at 1 kHz control and a 100 Hz log)
+        # those two alone are 0.31 GB for an hour at 1 kHz control and a 100 Hz log, 3.6e6 x 8
+        # + 3.6e5 x 27 doubles; the whole run allocates more, its reference and trajectory too)
         horizon = 1.5 * ref.duration + 5.0
         duration = horizon if sc.timing.duration_s is None else min(sc.timing.duration_s,
                                                                      2.0 * horizon)
@@ -870,7 +863,7 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
     controller : PythonController, optional
         A user's controller (Python object with ``step``) replacing ``sc.controller``. The same
         compiled engine runs, pausing at every control step to call it: a few microseconds of
-        Python per call (benchmarks/README.md "Closed loop": 279-288x real time with a
+        Python per call (benchmarks/README.md "Closed loop": 266-288x real time with a
         controller returning constants at 1 kHz on the 10DoF, against about 1000x for the
         built-in controllers). Its commands must be real numbers
         (``ValueError`` otherwise); non-finite ones are counted and warned about (below).
@@ -902,7 +895,27 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
     if controller is not None and not callable(getattr(controller, "step", None)):
         raise ValueError(f"controller = {controller!r}: expected an object with a step(t, "
                          "measurement, reference, applied) method")
-    prep = prepare(sc, python_controller=controller)
+    return _simulate_prepared(prepare(sc, python_controller=controller), controller)
+
+
+def simulate_prepared(prep: Prepared, controller: PythonController | None = None) -> Trajectory:
+    """:func:`simulate` of a scenario already prepared (:func:`prepare`, with the same
+    ``controller`` as its ``python_controller``): for a caller that also needs what the run was
+    built from (``prep.reference``, the vehicle) without building it twice. The run works on
+    copies of ``prep``'s controller arrays, so ``prep`` is left as it was (running it again
+    gives the same trajectory)."""
+    if not isinstance(prep, Prepared):
+        raise ValueError(f"prep = {prep!r}: expected a Prepared (simulation.prepare)")
+    if (controller is not None) != (prep.controller.kind == KIND.PYTHON):
+        raise ValueError("controller: give the same Python controller (or none) as the "
+                         "prepare(..., python_controller=...) that built prep")
+    return _simulate_prepared(prep, controller)
+
+
+def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> Trajectory:
+    """The run of :func:`simulate` and :func:`simulate_prepared` (one call level below
+    either: its warning's ``stacklevel`` names their caller)."""
+    sc = prep.scenario
     cref = prep.cref
     vehicle = prep.vehicle
     ref = prep.reference
@@ -939,7 +952,11 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
                       if f.kind == "nan_measurement"], dtype=float).reshape(-1, 3)
     steer_f = np.array([[f.t_start_s, f.t_start_s + f.duration_s, f.value] for f in sc.faults
                         if f.kind == "steer_limit"], dtype=float).reshape(-1, 3)
-    ctrl = prep.controller
+    # the controller's state lives in its arrays: the run's own copies (prep stays as built)
+    ctrl = dataclasses.replace(prep.controller, **{
+        f.name: getattr(prep.controller, f.name).copy()
+        for f in dataclasses.fields(prep.controller)
+        if isinstance(getattr(prep.controller, f.name), np.ndarray)})
     x = prep.x0.copy()
     ls = np.zeros(_LS_N)
     scratch = _loop_scratch(x.shape[0])
@@ -1028,7 +1045,7 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
             f"{meta['first_nonfinite_cmd_t_s']:.6g} s (control step "
             f"{int(ls[_LS_NF_FIRST]) // timing.control_every}); the actuators held the previous "
             "command there (flatfree.actuators.actuate_step). Counts in the trajectory's meta "
-            "(n_nonfinite_torque_cmd, n_nonfinite_steer_cmd)", RuntimeWarning, stacklevel=2)
+            "(n_nonfinite_torque_cmd, n_nonfinite_steer_cmd)", RuntimeWarning, stacklevel=3)
     return Trajectory(time=log[:, LOG.T], signals=signals, units=units, status=status,
                       status_time=None if status is Status.COMPLETED else sim_time, meta=meta)
 

@@ -17,6 +17,8 @@ raises :func:`nonfinite_command`'s ``ValueError`` instead of returning NaN.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -24,11 +26,19 @@ import numpy as np
 __all__ = ["CompiledController", "nonfinite_command"]
 
 
-def nonfinite_command(owner: str, command: str, value: float, inputs: dict[str, float],
+def nonfinite_command(owner: str, commands: Mapping[str, float], inputs: Mapping[str, object],
                       after: str) -> ValueError:
-    """The ``ValueError`` of a step whose command came out non-finite (module docstring):
-    names the command, its value and the step's inputs; ``after`` says what the shell did to
-    its state."""
+    """The ``ValueError`` of a step whose command came out non-finite (module docstring).
+
+    ``commands`` maps each command's name to its value, in the order the step returns them
+    (``{"torque": tw, "steer": delta}``, ``{"u": u}``); the error names the first non-finite
+    one, its value and the step's ``inputs``; ``after`` says what the shell did to its state.
+    At least one command must be non-finite (the caller's test).
+    """
+    bad = [(name, v) for name, v in commands.items() if not math.isfinite(v)]
+    if not bad:
+        raise ValueError(f"commands = {commands!r}: none is non-finite")
+    command, value = bad[0]
     shown = ", ".join(f"{k} = {v!r}" for k, v in inputs.items())
     return ValueError(f"{owner}.step({shown}): the command {command} = {value!r} is not finite "
                       "(the control law overflowed: a value of the order of 1e300 in these "

@@ -1104,9 +1104,8 @@ class FlatnessController(CompiledController):
                                float(ref[4]), float(self._params.dt), ta, da)
         if not (math.isfinite(tw) and math.isfinite(de)):  # overflowed (Raises)
             self.reset()
-            which, value = ("torque", tw) if not math.isfinite(tw) else ("steer", de)
             raise nonfinite_command(
-                type(self).__name__, which, value,
+                type(self).__name__, {"torque": tw, "steer": de},
                 {"x": xa.tolist(), "t": t, "applied": None if applied is None else [ta, da]},
                 "the controller was reset (its integrals held the overflowed values)")
         return np.array([tw, de])

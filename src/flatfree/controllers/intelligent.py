@@ -342,6 +342,23 @@ def _slide_moments(p, s, y_new, y_old, u_new, u_old, L):
 
 
 @numba.njit(**_JIT_STEP)
+def _push_y(s, y_in, L):
+    """Push ``y_in`` into the y ring buffer (IST docstring) and ``Y_LAST``; returns the new head
+    and the sample it overwrote (the oldest, leaving the window). The one push of
+    :func:`intelligent_step` and :func:`intelligent_step_external`."""
+    head = int(s[_HEAD]) - 1
+    if head < 0:
+        head += L
+    s[_HEAD] = head
+    yb0 = _HS
+    y_old = s[yb0 + head]
+    s[yb0 + head] = y_in
+    s[yb0 + head + L] = y_in
+    s[_YL] = y_in
+    return head, y_old
+
+
+@numba.njit(**_JIT_STEP)
 def _moment_sum(c, m):
     """``sum_m c_m M_m`` (degree 4) as a short tree."""
     return (c[0] * m[0] + c[1] * m[1]) + (c[2] * m[2] + c[3] * m[3]) + c[4] * m[4]
@@ -515,22 +532,16 @@ def intelligent_step(
             s[_YD] += dt * acc  # the velocity moves on too (consecutive missing samples)
     else:
         y_in = s[_YL]
-    head = int(s[_HEAD]) - 1
-    if head < 0:
-        head += L
-    s[_HEAD] = head
+    head, y_old = _push_y(s, y_in, L)
     use_mom = p[_MOM] != 0.0
     exact_moments = False
     if use_mom:
         if k >= L and s[_MVALID] != 0.0 and s[_MSINCE] < p[_REFRESH]:
-            # slide the moments by one sample (before the push overwrites the oldest y)
-            _slide_moments(p, s, y_in, s[yb0 + head], s[ub0 + head + 1], s[ub0 + head], L)
+            # slide the moments by one sample (y_old: the oldest y, which the push overwrote)
+            _slide_moments(p, s, y_in, y_old, s[ub0 + head + 1], s[ub0 + head], L)
             s[_MSINCE] += 1.0
         else:
             exact_moments = True
-    s[yb0 + head] = y_in
-    s[yb0 + head + L] = y_in
-    s[_YL] = y_in
     if k < L:
         k += 1
         s[_K] = k
@@ -628,14 +639,7 @@ def intelligent_step_external(p, s, y, y_ref, y_ref_dot, y_ref_ddot, f_hat, y_ha
                                and math.isfinite(y_dot_hat))):
         return intelligent_step(p, s, y, y_ref, y_ref_dot, y_ref_ddot)
     u_prev = s[_U]
-    head = int(s[_HEAD]) - 1
-    if head < 0:
-        head += L
-    s[_HEAD] = head
-    yb0 = _HS
-    s[yb0 + head] = y
-    s[yb0 + head + L] = y
-    s[_YL] = y
+    _push_y(s, y, L)
     s[_MVALID] = 0.0
     e = y_hat - y_ref
     u = _law(p, s, f_hat, e, y_dot_hat - y_ref_dot, y_ref_dot, y_ref_ddot, u_prev, e * p[_DT])
@@ -1094,7 +1098,7 @@ class IntelligentController(CompiledController):
         if not math.isfinite(u):  # the law overflowed (a finite u0 is always held)
             self.reset()
             raise nonfinite_command(
-                type(self).__name__, "u", u,
+                type(self).__name__, {"u": u},
                 {"y": y, "y_ref": y_ref, "y_ref_dot": y_ref_dot, "y_ref_ddot": y_ref_ddot},
                 "the controller was reset (its window held the overflowed values)")
         return u

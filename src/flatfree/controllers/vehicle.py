@@ -1107,8 +1107,7 @@ class NaturalOutputController:
         """Reset at the last finite commands and raise (:meth:`step`, Raises)."""
         torque0, steer0 = float(self._prev[0]), float(self._prev[1])
         self.reset(steer0=steer0, torque0=torque0)
-        which = "steer" if math.isfinite(tw) else "torque"
         raise nonfinite_command(
-            type(self).__name__, which, tw if which == "torque" else delta, inputs,
+            type(self).__name__, {"torque": tw, "steer": delta}, inputs,
             f"the controller was reset (reset(steer0={steer0!r}, torque0={torque0!r}), the "
             "last finite commands: its windows held the overflowed values)")

@@ -38,8 +38,9 @@ import math
 import numpy as np
 from numpy.polynomial import legendre as _leg
 
-from flatfree._validate import finite, nonnegative, positive, real_array
-from flatfree.estimators._fweights import _check_dt, _check_int
+from flatfree._validate import finite, nonnegative, positive, real_array, whole
+from flatfree.estimators._fir import check_finite
+from flatfree.estimators._fweights import _check_dt
 from flatfree.estimators._jacobi import JacobiDesign, _fit_operator
 
 __all__ = ["design_for", "predicted_rms", "signal_std_estimate"]
@@ -69,7 +70,7 @@ def _deriv_matrix(degree: int, order: int) -> np.ndarray:
 
 def _check_rule_inputs(dt, bandwidth_hz, noise_std, signal_std, order):
     dt = _check_dt(dt)
-    order = _check_int("order", order, 0)
+    order = whole("order", order, 0, strict=True)
     nyq = 0.5 / dt
     B = finite("bandwidth_hz", bandwidth_hz, "Hz")
     if not 0.0 < B < nyq:
@@ -164,7 +165,7 @@ def design_for(dt: float, *, bandwidth_hz: float, noise_std: float, signal_std: 
        doi:10.1080/00207721.2022.2025948.
     """
     dt, B, s, S, order = _check_rule_inputs(dt, bandwidth_hz, noise_std, signal_std, order)
-    max_taps = _check_int("max_taps", max_taps, order + 2)
+    max_taps = whole("max_taps", max_taps, order + 2, strict=True)
     if max_delay is None:
         max_lag = md = math.inf
     else:
@@ -263,10 +264,7 @@ def signal_std_estimate(y, noise_std: float) -> float:
     y = real_array("y", y)
     if y.ndim != 1 or y.size < 3:
         raise ValueError(f"y: expected a 1-D record of at least 3 samples, got shape {y.shape}")
-    bad = ~np.isfinite(y)
-    if bad.any():
-        k = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"y[{k}] = {float(y[k])!r}: samples must be finite")
+    check_finite(y, "raise", "y")  # the first non-finite sample, as differentiate names it
     i = np.arange(y.size, dtype=np.float64)
     coef = np.polyfit(i - i.mean(), y, 1)
     r = y - np.polyval(coef, i - i.mean())

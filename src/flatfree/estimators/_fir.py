@@ -45,7 +45,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from flatfree._validate import real_array
+from flatfree._validate import real_array, whole
 from flatfree._vecmath import no_refcount
 
 __all__ = ["STARTUP", "NONFINITE", "fir_new", "fir_reset", "fir_update", "fir_batch"]
@@ -87,7 +87,7 @@ def fir_new(weights, startup_weights=None, *, full: int | None = None,
     if w.ndim != 1 or w.size == 0 or not np.all(np.isfinite(w)):
         raise ValueError(f"weights: expected a non-empty finite 1-D array, got shape {w.shape}")
     ntaps = w.size
-    full = ntaps if full is None else int(full)
+    full = ntaps if full is None else whole("full", full, 1, strict=True)
     if not ntaps <= full <= ntaps + 1:
         raise ValueError(f"full = {full}: must be ntaps ({ntaps}) or ntaps + 1")
     s = _policy("startup", startup, STARTUP)

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flatfree._validate import one_of, positive
+from flatfree._validate import one_of, positive, whole
 
 __all__ = ["f_estimator_weights", "derivative_weights", "denoising_weights"]
 
@@ -48,14 +48,6 @@ __all__ = ["f_estimator_weights", "derivative_weights", "denoising_weights"]
 def _check_dt(dt: float) -> float:
     """A sampling period: a finite real number > 0, s."""
     return positive("dt", dt, "s")
-
-
-def _check_int(name: str, value, lo: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} = {value!r}: expected an integer >= {lo}")
-    if value < lo:
-        raise ValueError(f"{name} = {value!r}: must be >= {lo}")
-    return int(value)
 
 
 def _gram_coeffs(n: int, degree: int) -> np.ndarray:
@@ -113,7 +105,7 @@ def f_estimator_weights(nu: int, n: int, dt: float) -> tuple[np.ndarray, np.ndar
     .. [MJF09] Mboup, Join, Fliess, Numer. Algorithms 50 (2009) 439-467.
     """
     nu = one_of("nu", nu, (1, 2))
-    n = _check_int("n", n, nu + 1)
+    n = whole("n", n, nu + 1, strict=True)
     dt = _check_dt(dt)
     a = _gram_coeffs(n, nu)  # oldest first, per sample^nu
     if nu == 1:
@@ -164,7 +156,7 @@ def derivative_weights(n: int, dt: float, order: int = 1) -> np.ndarray:
     .. [MJF09] Mboup, Join, Fliess, Numer. Algorithms 50 (2009) 439-467.
     """
     order = one_of("order", order, (1, 2), " (use JacobiDesign for higher orders)")
-    n = _check_int("n", n, order + 1)
+    n = whole("n", n, order + 1, strict=True)
     dt = _check_dt(dt)
     a = _gram_coeffs(n, order)
     a = a / dt**order  # _gram_coeffs estimates d^order y / dj^order per sample^order
@@ -189,7 +181,7 @@ def denoising_weights(n: int) -> np.ndarray:
     .. [P] paper eq. (filtering), corrected in NOTES.md (the printed kernel ``3d - T`` returns the
        value at the start of the window).
     """
-    n = _check_int("n", n, 2)
+    n = whole("n", n, 2, strict=True)
     c = 0.5 * (n - 1)
     x = np.arange(n, dtype=np.float64) - c  # oldest first
     a = 1.0 / n + x * c / (n * (n * n - 1) / 12.0)  # mean + slope * (newest - centre)

@@ -50,8 +50,8 @@ import numpy as np
 from numpy.polynomial import legendre as _leg
 from scipy.special import gammaln
 
-from flatfree._validate import finite, positive, real_array
-from flatfree.estimators._fweights import _check_dt, _check_int
+from flatfree._validate import finite, positive, real_array, whole
+from flatfree.estimators._fweights import _check_dt
 
 __all__ = ["JacobiDesign", "jacobi_weights", "delay", "cutoff", "frequency_response"]
 
@@ -180,13 +180,13 @@ class JacobiDesign:
     weights: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        _check_int("order", self.order, 0)
-        _check_int("N", self.N, 0)
+        whole("order", self.order, 0, strict=True)
+        whole("N", self.N, 0, strict=True)
         if self.order + self.N > MAX_DEGREE:
             raise ValueError(
                 f"order + N = {self.order + self.N}: the fit degree must be <= {MAX_DEGREE}"
             )
-        _check_int("n", self.n, self.order + self.N + 1)
+        whole("n", self.n, self.order + self.N + 1, strict=True)
         object.__setattr__(self, "n", int(self.n))
         object.__setattr__(self, "dt", _check_dt(self.dt))
         for name in ("kappa", "mu"):

@@ -70,6 +70,7 @@ import numba
 import numpy as np
 
 from flatfree._validate import finite, nonnegative, positive, real_array
+from flatfree._vecmath import all_finite
 
 __all__ = [
     "BP",
@@ -428,11 +429,7 @@ def rk4_kernel(x0, u, dt, p, wdot, rolling):
     x = x0.copy()
     for k in range(n):
         rk4_step_into(x, u[k], dt, p, wdot[k, 0], wdot[k, 1], rolling, x)
-        ok = x[o] > 0.0
-        for i in range(nx):
-            if not math.isfinite(x[i]):
-                ok = False
-        if not ok:
+        if not (x[o] > 0.0 and all_finite(x)):
             return traj, k
         traj[k + 1] = x
     return traj, n

@@ -930,9 +930,8 @@ def _simulate_steps(x0, us, dt, p, tpf, tpr, xs, work, diag):
         xs[0, i] = x0[i]
     for k in range(n):
         rk4_step_kernel(xs[k], us[k], dt, p, tpf, tpr, xs[k + 1], work, diag)
-        for i in range(nx):
-            if not math.isfinite(xs[k + 1, i]):
-                return k
+        if not vm.all_finite(xs[k + 1]):
+            return k
     return n
 
 

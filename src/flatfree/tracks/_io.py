@@ -19,9 +19,7 @@ References
 
 from __future__ import annotations
 
-import functools
 import math
-import os
 import re
 from dataclasses import dataclass
 from importlib import resources
@@ -29,6 +27,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from flatfree._names import bundled_name as _bundled_name
 
 __all__ = [
     "MIN_POINTS",
@@ -89,33 +89,25 @@ def recording_names() -> list[str]:
 #: The kinds of bundled CSV data: the folder and the names of each.
 _FOLDERS = {"track": _TRACKS, "raceline": _RACELINES, "recording": _RECORDINGS}
 _NAMES = {"track": track_names, "raceline": raceline_names, "recording": recording_names}
-
-
-@functools.cache
-def _by_lower(kind: str) -> dict[str, str]:
-    """{lower-case name: name} of the bundled data of ``kind`` (fixed while the program runs);
-    a track may also be a recording's name (its driven path), after the tracks' own names."""
-    extra = recording_names() if kind == "track" else []
-    by_lower = {n.lower(): n for n in extra}
-    by_lower.update({n.lower(): n for n in _NAMES[kind]()})  # a track's own name wins
-    return by_lower
+#: The name lists :func:`bundled_name` looks in: a track may also be a recording's name (its
+#: driven path), listed before the tracks' own names, which win.
+_LOOKUP = {"track": (recording_names, track_names), "raceline": (raceline_names,),
+           "recording": (recording_names,)}
 
 
 def bundled_name(name: Any, kind: str = "track") -> str | None:
     """The bundled ``kind`` (``"track"``, ``"raceline"`` or ``"recording"``) that ``name``
     names, in its own spelling (``"monza"``, ``" Monza.csv"`` -> ``"Monza"``), else None.
 
-    The one name lookup of the loaders (:func:`resolve`): case-insensitive, surrounding blanks
-    and a ``.csv`` suffix ignored; a ``"track"`` may also be a recording's name (its driven
-    path). It looks at names only: a loader reads a value naming an existing file as that file
-    first. Anything but a ``str`` or ``os.PathLike`` is no name (None).
+    The one name lookup of the loaders (:func:`resolve`; :mod:`flatfree._names`, shared with
+    the vehicles'): case-insensitive, surrounding blanks and a ``.csv`` suffix ignored; a
+    ``"track"`` may also be a recording's name (its driven path). It looks at names only: a
+    loader reads a value naming an existing file as that file first. Anything but a ``str`` or
+    ``os.PathLike`` is no name (None).
     """
     if kind not in _FOLDERS:
         raise ValueError(f"kind = {kind!r}: must be one of {', '.join(_FOLDERS)}")
-    if not isinstance(name, (str, os.PathLike)):
-        return None
-    key = os.fspath(name).strip().lower()
-    return _by_lower(kind).get(key.removesuffix(".csv"))
+    return _bundled_name(name, _LOOKUP[kind], ".csv")
 
 
 def resolve(name_or_path: str | Path, kind: str) -> tuple[Any, str]:

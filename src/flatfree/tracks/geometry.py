@@ -152,7 +152,8 @@ def _hermite_scalar(v0, m0, v1, m1, sigma, h):
 @numba.njit(cache=True, inline="always")
 def _hermite_inv(g, i, sigma, h, inv_h):
     """:func:`_hermite` with the divisions by ``h`` as multiplications by ``inv_h = 1 / h``
-    (the projection's Newton loop: same formulas to round-off, ~4x shorter latency each)."""
+    (the projection's Newton loop: same formulas to round-off, a multiplication where
+    :func:`_hermite` divides)."""
     inv_h2 = inv_h * inv_h
     h00, h10, h01, h11, p00, d10, p01, d11, q00, q10, q01, q11 = _hermite_basis(sigma * inv_h)
     return _hermite_combine(g, i, h, h00, h10, h01, h11, p00 * inv_h, d10, p01 * inv_h, d11,

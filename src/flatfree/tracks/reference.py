@@ -36,7 +36,7 @@ import numba
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from flatfree._validate import as_real, positive, whole
+from flatfree._validate import as_real, finite, positive, real_array, whole
 from flatfree.tracks.geometry import Track, path_eval_many, progress, project_points
 from flatfree.tracks.loaders import load_track
 from flatfree.tracks.speed import (
@@ -199,15 +199,17 @@ def _offset_function(d, path: Track):
     """Return (d, d', d'', node values) as functions of the path arc length, or None for a
     zero offset. A function or node values are interpolated by a cubic spline (periodic on a
     closed track)."""
-    if not callable(d) and np.ndim(d) == 0:
-        c = float(d)
-        if not math.isfinite(c):
-            raise ValueError(f"lateral_offset = {d!r} m: must be finite")
-        if c == 0.0:
-            return None
-        zero = np.zeros_like
-        return (lambda s: np.full_like(s, c)), zero, zero, np.full_like(path.s, c)
-    vals = np.asarray(d(path.s) if callable(d) else d, dtype=float)
+    # real_array as Track.offset: text, booleans, None, ragged and object arrays refused
+    if callable(d):
+        vals = real_array("lateral_offset(s)", d(path.s), "m")
+    else:
+        vals = real_array("lateral_offset", d, "m")
+        if vals.ndim == 0:  # a constant
+            c = finite("lateral_offset", d, "m")
+            if c == 0.0:
+                return None
+            zero = np.zeros_like
+            return (lambda s: np.full_like(s, c)), zero, zero, np.full_like(path.s, c)
     if vals.ndim == 0:  # a function that returned a constant
         vals = np.full_like(path.s, float(vals))
     if vals.shape != path.s.shape or not np.isfinite(vals).all():

@@ -131,7 +131,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from flatfree._validate import positive, positive_or_inf
+from flatfree._validate import nonnegative, positive, positive_or_inf
 from flatfree.tracks.geometry import Track
 from flatfree.units import G
 from flatfree.vehicles.params import VehicleParams
@@ -521,8 +521,8 @@ def speed_profile(
     lim = limits if limits is not None else SpeedLimits()
     if track.closed and (v_start is not None or v_end is not None):
         raise ValueError("v_start/v_end: a closed track has a periodic profile; leave them None")
-    u_first = np.inf if v_start is None else positive_or_zero("v_start", v_start) ** 2
-    u_last = np.inf if v_end is None else positive_or_zero("v_end", v_end) ** 2
+    u_first = np.inf if v_start is None else nonnegative("v_start", v_start, "m/s") ** 2
+    u_last = np.inf if v_end is None else nonnegative("v_end", v_end, "m/s") ** 2
     if vehicle is None:
         drv = np.empty(0)
     else:
@@ -537,7 +537,7 @@ def speed_profile(
     with np.errstate(divide="ignore"):
         u_lat = np.where(kappa != 0.0, ay / np.abs(kappa), np.inf)  # [QSS] v^2 |kappa| <= ay
     u_lat = np.minimum(u_lat, lim.v_max**2)
-    if math.isfinite(lim.j_lat_max):  # inf (default): not even a no-op minimum (bit for bit)
+    if math.isfinite(lim.j_lat_max):  # inf (default): the cap is all inf, a no-op; skip it
         u_lat = np.minimum(u_lat, jerk_speed_cap(track, lim.j_lat_max) ** 2)
     if vehicle is not None:
         u_lat = np.minimum(u_lat, drv[_UTOP])  # the car's top speed (module doc)
@@ -584,11 +584,3 @@ def constant_speed_profile(track: Track, speed: float) -> SpeedProfile:
     v = np.full(n, float(speed))
     return SpeedProfile(track=track, s=track.s.copy(), v=v, a=np.zeros(n - 1),
                         t=track.s / float(speed), limits=None)
-
-
-def positive_or_zero(name: str, value) -> float:
-    """A finite speed >= 0 [m/s]."""
-    v = float(value)
-    if not (math.isfinite(v) and v >= 0.0):
-        raise ValueError(f"{name} = {value!r} m/s: must be a finite number >= 0")
-    return v

@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import functools
 import math
-import os
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
@@ -23,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from flatfree._names import bundled_name as _bundled_name
 from flatfree._validate import finite, in_range, nonnegative, positive
 from flatfree.units import G
 
@@ -358,27 +357,19 @@ def _read_toml(path_or_resource, what: str) -> dict:
 _NAMES = {"vehicle": vehicle_names, "tire": tire_names}
 
 
-@functools.cache
-def _by_lower(kind: str) -> dict[str, str]:
-    """{lower-case name: name} of the bundled presets of ``kind`` (fixed while the program
-    runs)."""
-    return {n.lower(): n for n in _NAMES[kind]()}
-
-
 def bundled_name(name: Any, kind: str = "vehicle") -> str | None:
     """The bundled vehicle preset (``kind="vehicle"``) or tyre set (``"tire"``) that ``name``
-    names, in its own spelling (``"Dallara_AV21"`` -> ``"dallara_av21"``), else None.
+    names, in its own spelling (``"Dallara_AV21"``, ``" peugeot406 "`` -> ``"dallara_av21"``,
+    ``"peugeot406"``), else None.
 
-    The one name lookup of the loaders (:func:`load_vehicle`, :func:`load_tire`):
-    case-insensitive. It looks at names only: a loader reads a value naming an existing file
-    (or ending in ``.toml``) as that file first. Anything but a ``str`` or ``os.PathLike`` is
-    no name (None).
+    The one name lookup of the loaders (:func:`load_vehicle`, :func:`load_tire`), shared with
+    the tracks' (:mod:`flatfree._names`): case-insensitive, surrounding blanks ignored; a
+    ``.toml`` suffix is not (a loader reads a value naming an existing file, or ending in
+    ``.toml``, as that file first). Anything but a ``str`` or ``os.PathLike`` is no name (None).
     """
     if kind not in _NAMES:
         raise ValueError(f"kind = {kind!r}: must be one of {', '.join(_NAMES)}")
-    if not isinstance(name, (str, os.PathLike)):
-        return None
-    return _by_lower(kind).get(os.fspath(name).lower())
+    return _bundled_name(name, (_NAMES[kind],))
 
 
 def _resolve(name_or_path: str | Path, folder, kind: str):

@@ -1,0 +1,42 @@
+"""The one bundled-name lookup of the loaders (tracks, race lines, recordings, vehicles, tyres).
+
+A name matches a bundled file's name case-insensitively, surrounding blanks ignored, and with
+the kind's own file suffix optional when the kind allows it (a track's ``.csv``; not a vehicle's
+``.toml``, which its loader reads as a path).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["bundled_name"]
+
+
+@functools.cache
+def _by_lower(*names: Callable[[], list[str]]) -> dict[str, str]:
+    """{lower-case name: name} of the names the functions ``names`` list (a bundled folder,
+    fixed while the program runs: one cache per folder); a later list's name wins."""
+    by_lower: dict[str, str] = {}
+    for listing in names:
+        by_lower.update({n.lower(): n for n in listing()})
+    return by_lower
+
+
+def bundled_name(name: Any, names: tuple[Callable[[], list[str]], ...],
+                 suffix: str | None = None) -> str | None:
+    """The bundled name, in its own spelling, that ``name`` names among those the functions
+    ``names`` list (a later one's wins), else None: case-insensitive, surrounding blanks
+    ignored, a trailing ``suffix`` (e.g. ``".csv"``, lower case) too. Anything but a ``str`` or
+    ``os.PathLike`` is no name (None)."""
+    if not isinstance(name, (str, os.PathLike)):
+        return None
+    key = os.fspath(name)
+    if not isinstance(key, str):  # a bytes path names no bundled file
+        return None
+    key = key.strip().lower()
+    if suffix is not None:
+        key = key.removesuffix(suffix)
+    return _by_lower(*names).get(key)
