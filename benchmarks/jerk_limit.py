@@ -74,15 +74,14 @@ def _order_of_magnitude() -> None:
               f"{rate / (big_l / v**2 + k_us):.0f} m/s^3", flush=True)
 
 
-def _profiles(tracks: dict[str, str]) -> None:
+def _profiles(tracks: dict) -> None:
     veh = load_vehicle("peugeot406")
     print("1. lap time [s] of the friction-only profile, its max v^3 |dkappa/ds| [m/s^3], and "
           "the lap time each limit adds [s] (friction only / within the peugeot406's drive "
           "limit)")
     print(f"{'track':22s} {'lap':>8s} {'max jerk':>9s} " + " ".join(
         f"{'j=' + format(j, 'g'):>15s}" for j in LIMITS))
-    for label, path in tracks.items():
-        tk = load_track(path)
+    for label, tk in tracks.items():
         base = speed_profile(tk)
         base_v = speed_profile(tk, vehicle=veh)
         peak = float(np.max(base.v**3 * np.abs(tk.dkappa_ds)))
@@ -95,15 +94,14 @@ def _profiles(tracks: dict[str, str]) -> None:
         print(f"{label:22s} {base.duration:8.2f} {peak:9.1f} " + " ".join(cells), flush=True)
 
 
-def _neglected(tracks: dict[str, str]) -> None:
+def _neglected(tracks: dict) -> None:
     print("\n2. the neglected term 2 vbar a kbar on the segments [m/s^3]: its max, the largest "
           "share of its ellipse bound a_x,max a_y,max vbar / v_min^2, its max where the steady "
           "term is >= 0.9 j; the steady term's max / j (between nodes); the centred difference "
           "of the node curvatures against dkappa/ds, max |difference| / max |dkappa/ds|")
     for j in (J_LAT_HANDLING, 5.0):
         print(f"j = {j:g} m/s^3")
-        for label, path in tracks.items():
-            tk = load_track(path)
+        for label, tk in tracks.items():
             lim = SpeedLimits(j_lat_max=j)
             prof = speed_profile(tk, lim)
             v, u, k = prof.v, prof.v**2, tk.kappa
@@ -179,8 +177,9 @@ def _spa_sweep(seeds: int) -> None:
                 lat.append(100 * m.lateral_error_max_m)
             else:
                 left.append(f"{seed} ({tr.status_time:.1f} s)")
-        print(f"  j={j:g}: completed {done}/{seeds}, lateral max {min(lat):.2f}-{max(lat):.2f} "
-              f"cm; left: {', '.join(left)}", flush=True)
+        span = f"{min(lat):.2f}-{max(lat):.2f} cm" if lat else "none completed"
+        print(f"  j={j:g}: completed {done}/{seeds}, lateral max {span}; "
+              f"left: {', '.join(left) or 'none'}", flush=True)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -196,7 +195,9 @@ def main(argv: list[str] | None = None) -> None:
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     with tempfile.TemporaryDirectory() as folder:
         rough = write_smoothed("LVMS", 20.0, folder)
-        tracks = {t: t for t in track_names()} | {"LVMS smoothed at 20 m": rough}
+        # each track loaded once for parts 1 and 2
+        tracks = {t: load_track(t) for t in track_names()}
+        tracks["LVMS smoothed at 20 m"] = load_track(rough)
         if "0" not in skip:
             _order_of_magnitude()
         if "1" not in skip:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import time
 from pathlib import Path
 
@@ -88,7 +89,14 @@ def main() -> None:
         case["seed_band"] = band
     print(f"{time.perf_counter() - t0:.0f} s")
     if args.write:
-        BOUNDS_FILE.write_text(json.dumps(doc, indent=1) + "\n")
+        BOUNDS_FILE.write_text(dump(doc))
+
+
+def dump(doc: dict) -> str:
+    """The JSON text of the bounds file: indented, with each [min, max] pair on one line
+    (as the reviewed file keeps them, so that a rewrite's diff shows only changed values)."""
+    text = json.dumps(doc, indent=1) + "\n"
+    return re.sub(r"\[\n\s*([^\[\]\n,]+),\n\s*([^\[\]\n,]+)\n\s*\]", r"[\1, \2]", text)
 
 
 if __name__ == "__main__":

@@ -30,9 +30,14 @@ HUGE_J = 1e300
 
 @pytest.fixture(scope="module")
 def rough_lvms(tmp_path_factory) -> str:
-    """LVMS smoothed at 20 m instead of its 60 m, written as a track file and read back (which
-    smooths it again at 20 m): the rough centerline of benchmarks/yaw_feasibility.py part 3."""
-    tk = load_track("LVMS", smoothing_length=20.0)
+    """The LVMS bound files' own midline (its loop-closure artefact not bridged) smoothed at
+    20 m instead of 60 m, written as a track file and read back (which smooths it again at
+    20 m): the rough centerline of benchmarks/yaw_feasibility.py part 3."""
+    from flatfree.tracks.loaders import lvms_centerline
+
+    p = lvms_centerline(bridge_seam=False)
+    tk = Track.from_points(p.x, p.y, w_left=p.w_left, w_right=p.w_right, closed=True,
+                           smoothing_length=20.0, name="LVMS rough")
     return str(tk.to_csv(tmp_path_factory.mktemp("rough") / "LVMS_20.csv"))
 
 

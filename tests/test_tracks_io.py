@@ -325,3 +325,47 @@ def test_short_first_row_is_reported_against_the_header(tmp_path):
     f = _write(tmp_path, [HEADER, "0.0,0.0,5.0", *GOOD[1:]])
     with pytest.raises(ValueError, match=r"bad\.csv, line 2: expected 4 values"):
         T.load_track(f)
+
+
+def _stadium(spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """A closed stadium (straights 600 m, turns of radius 100 m), counter-clockwise, starting
+    at the middle of the lower straight: point 0 at (0, 0), heading +x."""
+    pts = [np.column_stack([np.arange(0.0, 300.0, spacing), np.zeros(300)])]
+    a = np.arange(0.0, np.pi, spacing / 100.0)
+    pts.append(np.column_stack([300.0 + 100.0 * np.sin(a), 100.0 - 100.0 * np.cos(a)]))
+    pts.append(np.column_stack([np.arange(300.0, -300.0, -spacing), np.full(600, 200.0)]))
+    pts.append(np.column_stack([-300.0 - 100.0 * np.sin(a), 100.0 + 100.0 * np.cos(a)]))
+    pts.append(np.column_stack([np.arange(-300.0, 0.0, spacing), np.zeros(300)]))
+    xy = np.concatenate(pts)
+    return xy[:, 0].copy(), xy[:, 1].copy()
+
+
+def test_bridge_closure_leaves_a_straight_and_removes_a_bump_on_it():
+    """Exact on a line: on a straight (the parabolas through each side are the line, so the
+    quintic is), the bridge moves no point by more than round-off, and a bump of 0.8 m inside
+    the stretch (the LVMS artefact's size) is taken back onto the line; every point outside
+    the stretch keeps its coordinates bit for bit."""
+    from flatfree.tracks.loaders import bridge_closure
+
+    x, y = _stadium()
+    bx, by = bridge_closure(x, y, 40.0, 50.0)
+    assert np.abs(by - y).max() < 1e-9 and np.abs(bx - x).max() < 1e-9
+    lower = y == 0.0  # the lower straight, |x| < 300 m
+    bump = np.where(lower & (x > -30.0) & (x < 40.0),
+                    0.8 * np.sin(np.pi * (x + 30.0) / 70.0) ** 2, 0.0)
+    bx, by = bridge_closure(x, y + bump, 40.0, 50.0)
+    assert np.abs(by[lower]).max() < 1e-9  # back on the straight y = 0
+    np.testing.assert_array_equal(bx, x)  # moved across the chord (here: y) only
+    out = ~((x > -40.5) & (x < 50.5) & lower)
+    np.testing.assert_array_equal(by[out], (y + bump)[out])
+
+
+def test_bridge_closure_refuses_a_stretch_it_cannot_bridge():
+    from flatfree.tracks.loaders import bridge_closure
+
+    x, y = _stadium()
+    for before, after, fit in ((0.0, 50.0, 30.0), (40.0, -1.0, 30.0), (40.0, 50.0, 0.0),
+                               (700.0, 700.0, 30.0)):
+        with pytest.raises(ValueError, match=rf"before = {before!r} m, after = {after!r} m, "
+                                             rf"fit = {fit!r} m"):
+            bridge_closure(x, y, before, after, fit=fit)

@@ -8,6 +8,7 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,7 +17,8 @@ import numpy as np
 from flatfree.tracks import _io
 from flatfree.tracks.geometry import DEFAULT_DS, DEFAULT_SMOOTHING_LENGTH, Track
 
-__all__ = ["TrackPoints", "read_track_points", "load_track", "lvms_centerline"]
+__all__ = ["TrackPoints", "read_track_points", "load_track", "lvms_centerline",
+           "bridge_closure"]
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -72,22 +74,91 @@ def _points_from_raw(raw: _io.RawData, name: str) -> TrackPoints:
 
 
 #: Smoothing cut-off wavelength for the LVMS centerline built from the bound files [m]. The
-#: bound files are generated (PROVENANCE.md) and their midline bends by ~0.3 m over ~40 m at the
-#: loop closure, which the default 20 m cut-off turns into a curvature swing of +-0.007 1/m on
-#: the straight (an S-bend the car cannot follow). The oval's turns have radii >= 150 m (1st/99th
+#: bound files are generated (PROVENANCE.md: a constant 15.0 m width) and their midline carries
+#: short wiggles (up to ~0.2 m over ~70 m on the back straight) that the default 20 m cut-off
+#: turns into curvature swings of up to 0.012 1/m; the oval's turns have radii >= 150 m (1st/99th
 #: percentile of the recorded path's curvature: -0.0009 / +0.0065 1/m, PROVENANCE.md), which a
-#: 60 m cut-off passes unchanged (gain 1 - (60 / (2 pi 150))^8 ~ 1); the seam swing drops to
-#: 0.0016 1/m.
+#: 60 m cut-off passes unchanged (gain 1 - (60 / (2 pi 150))^8 ~ 1).
 LVMS_SMOOTHING_LENGTH = 60.0
 
+#: The stretch of the LVMS bound files' loop closure that :func:`lvms_centerline` replaces:
+#: from this far before the first point to this far after it [m]. Both generated bound files
+#: start at the same place and carry the same artefact there: the line bulges sideways by up to
+#: 0.8 m over the ~80 m around its first point (against a cubic through the 80 m on either
+#: side), which the recorded car does not drive (its distance from the smoothed midline dipped
+#: by the bulge's shape on both of its passes, by 43 / 48 cm over the 100 m around the first
+#: point; 8 / 19 cm with the bridge, its own wander). Left in, it was an S-bend
+#: of -0.0016 / +0.0015 1/m at the start line, where the car starts at 45 m/s into a 6 m/s^2
+#: braking: a slalom of +-3.6 m/s^2 of lateral acceleration that no real lap has.
+LVMS_SEAM_M = (40.0, 50.0)
 
-def lvms_centerline() -> TrackPoints:
+
+def bridge_closure(x: np.ndarray, y: np.ndarray, before: float, after: float, *,
+                   fit: float = 30.0) -> tuple[np.ndarray, np.ndarray]:
+    """Replace the points of a closed polyline near its first point by a smooth bridge [m].
+
+    The points less than ``before`` [m] of arc length before the first point (the end of the
+    arrays) and less than ``after`` [m] after it are moved sideways, in the frame of the chord
+    between the two ends of that stretch, onto the quintic that matches the line on either
+    side in position, slope and second derivative (C2): each side's values come from a
+    least-squares parabola through the points within ``fit`` [m] beyond the stretch's end.
+    Points keep their place along the chord (so their spacing changes by a fraction of the
+    move), every other point is untouched. For a stretch that is nearly straight in the chord's
+    frame (slopes well below 1), as a seam artefact on a straight is.
+
+    Returns new ``x, y`` arrays.
+    """
+    n = x.size
+    seg = np.hypot(np.diff(x, append=x[0]), np.diff(y, append=y[0]))
+    length = float(seg.sum())
+    s = np.concatenate([[0.0], np.cumsum(seg[:-1])])
+    s = np.where(s > 0.5 * length, s - length, s)  # signed arc length from the first point
+    reach = before + after + 2.0 * fit
+    if not (before > 0.0 and after > 0.0 and fit > 0.0 and reach < 0.5 * length and n > 8):
+        raise ValueError(f"bridge_closure: before = {before!r} m, after = {after!r} m, "
+                         f"fit = {fit!r} m: each must be > 0 and the whole stretch "
+                         f"({reach:g} m) shorter than half the loop ({length:g} m)")
+    a = int(np.argmin(np.abs(s + before)))
+    b = int(np.argmin(np.abs(s - after)))
+    ex, ey = x[b] - x[a], y[b] - y[a]
+    chord = math.hypot(ex, ey)
+    ex, ey = ex / chord, ey / chord
+    u = (x - x[a]) * ex + (y - y[a]) * ey  # along the chord
+    v = -(x - x[a]) * ey + (y - y[a]) * ex  # across it (left positive)
+
+    def side(lo: float, hi: float, at: float) -> list[float]:
+        m = (s >= lo) & (s <= hi)
+        c = np.polyfit(u[m], v[m], 2)
+        return [float(np.polyval(c, at)), float(np.polyval(np.polyder(c), at)), 2.0 * c[0]]
+
+    ua, ub = float(u[a]), float(u[b])
+    h = ub - ua
+    # the quintic v = sum c_k t^k, t = u - ua, from its value, slope and curvature at both ends
+    rows, rhs = [], []
+    for t, vals in ((0.0, side(-before - fit, -before, ua)), (h, side(after, after + fit, ub))):
+        rows.append([t**k for k in range(6)])
+        rows.append([k * t ** (k - 1) if k > 0 else 0.0 for k in range(6)])
+        rows.append([k * (k - 1) * t ** (k - 2) if k > 1 else 0.0 for k in range(6)])
+        rhs.extend(vals)
+    coef = np.linalg.solve(np.array(rows), np.array(rhs))
+    inside = (s > -before) & (s < after)
+    move = np.polynomial.polynomial.polyval(u[inside] - ua, coef) - v[inside]
+    xn, yn = x.copy(), y.copy()
+    xn[inside] -= move * ey
+    yn[inside] += move * ex
+    return xn, yn
+
+
+def lvms_centerline(*, bridge_seam: bool = True) -> TrackPoints:
     """Centerline of the LVMS oval from the bundled bound files [rec].
 
     For each point of the inner bound, the foot point on the outer bound (nearest vertex, then
     the nearest of its two adjacent segments) gives the local width; the centerline point is
     the midpoint, and each side gets half the width. Orientation: counter-clockwise, the
-    direction the recording drives (PROVENANCE.md), so the inner bound is on the left.
+    direction the recording drives (PROVENANCE.md), so the inner bound is on the left. The
+    bound files' loop-closure artefact is bridged (:data:`LVMS_SEAM_M`, :func:`bridge_closure`);
+    ``bridge_seam=False`` keeps it (the files' own midline: a rough path with an S-bend at the
+    start line, which tests and benchmarks of rough paths use).
     """
     pts = []
     for fname in _io.LVMS_BOUNDS:
@@ -120,9 +191,15 @@ def lvms_centerline() -> TrackPoints:
                         - np.roll(centre[:, 0], -1) * centre[:, 1])
     if area < 0:  # make it counter-clockwise
         centre, half = centre[::-1], half[::-1]
+    # the generated bounds' closure artefact, bridged (LVMS_SEAM_M, before and after the first
+    # point in the driving direction; the seam lies between the last point and the first)
     src = f"{_io.LVMS_BOUNDS[0]} + {_io.LVMS_BOUNDS[1]} (midline)"
-    return TrackPoints(_io.LVMS_NAME, src, centre[:, 0].copy(), centre[:, 1].copy(),
-                       half.copy(), half.copy(), True)
+    x, y = centre[:, 0].copy(), centre[:, 1].copy()
+    if bridge_seam:
+        x, y = bridge_closure(x, y, *LVMS_SEAM_M)
+        src = (f"{src[:-1]}, closure artefact bridged over {LVMS_SEAM_M[0]:g} m before and "
+               f"{LVMS_SEAM_M[1]:g} m after the first point)")
+    return TrackPoints(_io.LVMS_NAME, src, x, y, half.copy(), half.copy(), True)
 
 
 def read_track_points(name_or_path: str | Path, *, raceline: bool = False) -> TrackPoints:
