@@ -160,8 +160,10 @@ DALLARA_NATURAL_SETTINGS: dict[str, float | int | str] = {**NATURAL_SETTINGS, "a
 #: where the yaw mode left by the CoG output loses its damping, braking hard at speed: with the
 #: drivable speed profile (``reference.drive_limit``) Spa's Eau Rouge is lost by every run at
 #: k_r 0 (noise-free too), by 2 of 30 at 0.15 and by none at 0.2. The 50-sample denoiser's
-#: lag lost LVMS's start (45 m/s into a braked S-bend) for 2 of 30 seeds; with 20, 90 of 90
-#: complete (and 210 of 210 on the 7 tracks with either profile). benchmarks/README.md
+#: lag lost LVMS's start (45 m/s into a braked S-bend, the bound files' seam, since bridged:
+#: tracks.loaders.LVMS_SEAM_M) for 2 of 30 seeds; with 20, 90 of 90 complete (and 210 of 210
+#: on the 7 tracks with either profile; 420 of 420 over 60 seeds after the seam's bridge).
+#: benchmarks/README.md
 #: "Closed loop", "Acceleration-aided F".
 IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_damping": 0.2,
                                               "denoise_yaw": 20}

@@ -41,7 +41,9 @@ curvature), at the speed it can have there: on a closed track the power-limited 
 flying lap (:func:`flying_lap_speed`), at most the reference's. The speed profiles know the
 friction ellipse, not the engine; starting at an unreachable reference speed put the
 peugeot406 at 49.1 m/s (it arrives at 44.8 m/s) into a 6 m/s^2 braking through the LVMS
-seam's S-bend, where the braking car is yaw-unstable: it spun within 4.4 s.
+seam's S-bend, where the braking car is yaw-unstable: it spun within 4.4 s (the S-bend, an
+artefact of the bound files, is now bridged: tracks.loaders.LVMS_SEAM_M; the profile asks
+49.7 m/s there, the car arrives at 44.7).
 
 The reference tables are sampled every :data:`REFERENCE_DT_S` and interpolated linearly.
 A user's own Python controller (:class:`PythonController`, ``simulate(sc, controller=obj)``)
@@ -726,8 +728,8 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     n_steps = int(round(duration / sc.timing.plant_dt_s))
     # start on the reference, with its sideslip and path curvature, at the speed the car can
     # have there: on a closed track the car arrives at the line on a flying lap, and the
-    # friction-only profile may ask for more than the engine gives (LVMS: 49.1 m/s at s = 0,
-    # where the peugeot406 arrives at 44.8 m/s, at the start of a 6 m/s^2 braking;
+    # friction-only profile may ask for more than the engine gives (LVMS: 49.7 m/s at s = 0,
+    # where the peugeot406 arrives at 44.7 m/s, at the start of a 6 m/s^2 braking;
     # flying_lap_speed). A recording's speed was driven: kept.
     row = ref.table[0]
     vx_ref0 = float(row[RS.VX])
@@ -770,7 +772,8 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     # model's steer there (the actuator's position, known to any controller switched on while
     # the car is driven; a model-free controller holds it until its window is full). With a
     # zero initial steer the car started un-trimmed in a curve: the peugeot406 at 45 m/s on
-    # LVMS's curved start line left the track within 3 s (seed 4; noise-free with wn_lat 10).
+    # LVMS's curved start line (the bound files' seam, since bridged) left the track within 3 s
+    # (seed 4; noise-free with wn_lat 10).
     steer0 = float(np.clip(lat.delta[0], -act.max_steer, act.max_steer))
     return Prepared(sc, vehicle, ref, beta, ctrl, act, cref, x0, n_steps, schedule == "path",
                     steer0)
