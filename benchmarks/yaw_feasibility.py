@@ -51,7 +51,7 @@ from flatfree.metrics import DEFAULT_STARTUP_S
 from flatfree.scenarios import named_scenario
 from flatfree.simulation import simulate
 from flatfree.tracks import load_track, track_names
-from flatfree.tracks.geometry import DEFAULT_SMOOTHING_LENGTH, Track
+from flatfree.tracks.geometry import DEFAULT_SMOOTHING_LENGTH
 from flatfree.tracks.loaders import LVMS_SMOOTHING_LENGTH, lvms_centerline
 
 
@@ -92,9 +92,8 @@ def write_smoothed(track: str, length: float, folder: str) -> str:
     at the default 20 m. LVMS: the bound files' own midline, its loop-closure artefact not
     bridged (the rough path of these benchmarks: an S-bend at the start line)."""
     if track.upper() == "LVMS":
-        p = lvms_centerline(bridge_seam=False)
-        tk = Track.from_points(p.x, p.y, w_left=p.w_left, w_right=p.w_right, closed=True,
-                               smoothing_length=length, name=f"LVMS rough {length:g}")
+        tk = lvms_centerline(bridge_seam=False).to_track(smoothing_length=length,
+                                                          name=f"LVMS rough {length:g}")
     else:
         tk = load_track(track, smoothing_length=length)
     return str(tk.to_csv(os.path.join(folder, f"{track}_{length:g}.csv")))

@@ -35,9 +35,7 @@ def rough_lvms(tmp_path_factory) -> str:
     20 m): the rough centerline of benchmarks/yaw_feasibility.py part 3."""
     from flatfree.tracks.loaders import lvms_centerline
 
-    p = lvms_centerline(bridge_seam=False)
-    tk = Track.from_points(p.x, p.y, w_left=p.w_left, w_right=p.w_right, closed=True,
-                           smoothing_length=20.0, name="LVMS rough")
+    tk = lvms_centerline(bridge_seam=False).to_track(smoothing_length=20.0, name="LVMS rough")
     return str(tk.to_csv(tmp_path_factory.mktemp("rough") / "LVMS_20.csv"))
 
 

@@ -343,8 +343,8 @@ def _stadium(spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
 def test_bridge_closure_leaves_a_straight_and_removes_a_bump_on_it():
     """Exact on a line: on a straight (the parabolas through each side are the line, so the
     quintic is), the bridge moves no point by more than round-off, and a bump of 0.8 m inside
-    the stretch (the LVMS artefact's size) is taken back onto the line; every point outside
-    the stretch keeps its coordinates bit for bit."""
+    the stretch (larger than the LVMS artefact's 0.7 m) is taken back onto the line; every point
+    outside the stretch keeps its coordinates bit for bit."""
     from flatfree.tracks.loaders import bridge_closure
 
     x, y = _stadium()
@@ -364,8 +364,14 @@ def test_bridge_closure_refuses_a_stretch_it_cannot_bridge():
     from flatfree.tracks.loaders import bridge_closure
 
     x, y = _stadium()
-    for before, after, fit in ((0.0, 50.0, 30.0), (40.0, -1.0, 30.0), (40.0, 50.0, 0.0),
-                               (700.0, 700.0, 30.0)):
-        with pytest.raises(ValueError, match=rf"before = {before!r} m, after = {after!r} m, "
-                                             rf"fit = {fit!r} m"):
+    for (before, after, fit), msg in (((0.0, 50.0, 30.0), "before = 0.0 m: must be > 0"),
+                                      ((40.0, -1.0, 30.0), "after = -1.0 m: must be > 0"),
+                                      ((40.0, 50.0, 0.0), "fit = 0.0 m: must be > 0"),
+                                      ((40.0, "50", 30.0), "after = '50' m: expected a real"),
+                                      ((700.0, 700.0, 30.0), "before + after + 2 fit = 1460 m")):
+        with pytest.raises(ValueError, match=f"^{re.escape(msg)}"):
             bridge_closure(x, y, before, after, fit=fit)
+    with pytest.raises(ValueError, match=rf"^y: expected {x.size} values, got {x.size - 1}$"):
+        bridge_closure(x, y[:-1], 40.0, 50.0)
+    with pytest.raises(ValueError, match=r"^x \(shape \(\d+,\)\): expected real numbers"):
+        bridge_closure(["a"] * x.size, y, 40.0, 50.0)

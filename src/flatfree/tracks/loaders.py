@@ -13,9 +13,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.interpolate import BPoly
 
+from flatfree._validate import positive
 from flatfree.tracks import _io
-from flatfree.tracks.geometry import DEFAULT_DS, DEFAULT_SMOOTHING_LENGTH, Track
+from flatfree.tracks.geometry import DEFAULT_DS, DEFAULT_SMOOTHING_LENGTH, Track, _as_1d
 
 __all__ = ["TrackPoints", "read_track_points", "load_track", "lvms_centerline",
            "bridge_closure"]
@@ -44,6 +46,19 @@ class TrackPoints:
     w_left: np.ndarray
     w_right: np.ndarray
     closed: bool | None
+
+    def to_track(self, *, closed: bool | None = None, ds: float = DEFAULT_DS,
+                 smoothing_length: float | None = None, name: str | None = None) -> Track:
+        """The points smoothed and resampled (:meth:`Track.from_points`), with this file's
+        ``closed`` flag and name unless given, and the smoothing default of :func:`load_track`
+        (``LVMS_SMOOTHING_LENGTH`` for the LVMS midline, else ``DEFAULT_SMOOTHING_LENGTH``)."""
+        if smoothing_length is None:
+            smoothing_length = (LVMS_SMOOTHING_LENGTH if self.name == _io.LVMS_NAME
+                                else DEFAULT_SMOOTHING_LENGTH)
+        return Track.from_points(self.x, self.y, w_left=self.w_left, w_right=self.w_right,
+                                 closed=self.closed if closed is None else closed, ds=ds,
+                                 smoothing_length=smoothing_length,
+                                 name=self.name if name is None else name, source=self.source)
 
     def polyline_length(self, closed: bool) -> float:
         """Length of the raw polyline [m], with the closing segment when ``closed``."""
@@ -75,21 +90,25 @@ def _points_from_raw(raw: _io.RawData, name: str) -> TrackPoints:
 
 #: Smoothing cut-off wavelength for the LVMS centerline built from the bound files [m]. The
 #: bound files are generated (PROVENANCE.md: a constant 15.0 m width) and their midline carries
-#: short wiggles (up to ~0.2 m over ~70 m on the back straight) that the default 20 m cut-off
-#: turns into curvature swings of up to 0.012 1/m; the oval's turns have radii >= 150 m (1st/99th
+#: short wiggles that the default 20 m cut-off turns into curvature down to -0.0040 1/m on an
+#: oval without a right-hand bend, and up to 0.0119 1/m in its turns (-0.0014 / 0.0062 at 60 m;
+#: benchmarks/lvms_seam.py); the oval's turns have radii >= 150 m (1st/99th
 #: percentile of the recorded path's curvature: -0.0009 / +0.0065 1/m, PROVENANCE.md), which a
 #: 60 m cut-off passes unchanged (gain 1 - (60 / (2 pi 150))^8 ~ 1).
 LVMS_SMOOTHING_LENGTH = 60.0
 
 #: The stretch of the LVMS bound files' loop closure that :func:`lvms_centerline` replaces:
 #: from this far before the first point to this far after it [m]. Both generated bound files
-#: start at the same place and carry the same artefact there: the line bulges sideways by up to
-#: 0.8 m over the ~80 m around its first point (against a cubic through the 80 m on either
-#: side), which the recorded car does not drive (its distance from the smoothed midline dipped
-#: by the bulge's shape on both of its passes, by 43 / 48 cm over the 100 m around the first
-#: point; 8 / 19 cm with the bridge, its own wander). Left in, it was an S-bend
-#: of -0.0016 / +0.0015 1/m at the start line, where the car starts at 45 m/s into a 6 m/s^2
-#: braking: a slalom of +-3.6 m/s^2 of lateral acceleration that no real lap has.
+#: start at the same place and carry the same artefact there: the line bulges sideways in the
+#: ~40 m after its first point, by up to 0.67 / 0.71 m (the bridge's largest move, 20 m after
+#: it; at most 4 cm before it), which the recorded car does not drive (its distance from the
+#: smoothed midline dipped by the bulge's shape on both of its passes: a span of 48 / 43 cm over
+#: the 100 m around the first point, 8 / 19 cm with the bridge, its own wander). Left in, it was
+#: an S-bend at the start line, curvature -0.0016 1/m 19 m after it and +0.0014 at 50 m
+#: (bridged: -0.0002 / +0.0005, turn 1's entry), where the car starts at 45 m/s into a 6 m/s^2
+#: braking: the friction-only profile's lateral acceleration in the first 70 m went -3.6 /
+#: +2.7 m/s^2 (bridged: -0.4 / +2.3), a slalom that no real lap has. Measured by
+#: benchmarks/lvms_seam.py.
 LVMS_SEAM_M = (40.0, 50.0)
 
 
@@ -107,17 +126,25 @@ def bridge_closure(x: np.ndarray, y: np.ndarray, before: float, after: float, *,
     frame (slopes well below 1), as a seam artefact on a straight is.
 
     Returns new ``x, y`` arrays.
+
+    Raises
+    ------
+    ValueError
+        Coordinates that are not 1-D real arrays of one length, a length that is not positive, or
+        a stretch (with its two fits) that is not shorter than half the loop.
     """
-    n = x.size
+    x = _as_1d("x", x)
+    y = _as_1d("y", y, x.size)
+    before, after, fit = (positive(k, v, "m") for k, v in
+                          (("before", before), ("after", after), ("fit", fit)))
     seg = np.hypot(np.diff(x, append=x[0]), np.diff(y, append=y[0]))
     length = float(seg.sum())
     s = np.concatenate([[0.0], np.cumsum(seg[:-1])])
     s = np.where(s > 0.5 * length, s - length, s)  # signed arc length from the first point
     reach = before + after + 2.0 * fit
-    if not (before > 0.0 and after > 0.0 and fit > 0.0 and reach < 0.5 * length and n > 8):
-        raise ValueError(f"bridge_closure: before = {before!r} m, after = {after!r} m, "
-                         f"fit = {fit!r} m: each must be > 0 and the whole stretch "
-                         f"({reach:g} m) shorter than half the loop ({length:g} m)")
+    if not reach < 0.5 * length:
+        raise ValueError(f"before + after + 2 fit = {reach:g} m: the stretch and its fits must "
+                         f"be shorter than half the loop ({length:g} m)")
     a = int(np.argmin(np.abs(s + before)))
     b = int(np.argmin(np.abs(s - after)))
     ex, ey = x[b] - x[a], y[b] - y[a]
@@ -132,17 +159,11 @@ def bridge_closure(x: np.ndarray, y: np.ndarray, before: float, after: float, *,
         return [float(np.polyval(c, at)), float(np.polyval(np.polyder(c), at)), 2.0 * c[0]]
 
     ua, ub = float(u[a]), float(u[b])
-    h = ub - ua
-    # the quintic v = sum c_k t^k, t = u - ua, from its value, slope and curvature at both ends
-    rows, rhs = [], []
-    for t, vals in ((0.0, side(-before - fit, -before, ua)), (h, side(after, after + fit, ub))):
-        rows.append([t**k for k in range(6)])
-        rows.append([k * t ** (k - 1) if k > 0 else 0.0 for k in range(6)])
-        rows.append([k * (k - 1) * t ** (k - 2) if k > 1 else 0.0 for k in range(6)])
-        rhs.extend(vals)
-    coef = np.linalg.solve(np.array(rows), np.array(rhs))
+    # the quintic from its value, slope and second derivative at both ends
+    quintic = BPoly.from_derivatives([ua, ub], [side(-before - fit, -before, ua),
+                                                side(after, after + fit, ub)])
     inside = (s > -before) & (s < after)
-    move = np.polynomial.polynomial.polyval(u[inside] - ua, coef) - v[inside]
+    move = quintic(u[inside]) - v[inside]
     xn, yn = x.copy(), y.copy()
     xn[inside] -= move * ey
     yn[inside] += move * ex
@@ -191,14 +212,15 @@ def lvms_centerline(*, bridge_seam: bool = True) -> TrackPoints:
                         - np.roll(centre[:, 0], -1) * centre[:, 1])
     if area < 0:  # make it counter-clockwise
         centre, half = centre[::-1], half[::-1]
-    # the generated bounds' closure artefact, bridged (LVMS_SEAM_M, before and after the first
-    # point in the driving direction; the seam lies between the last point and the first)
-    src = f"{_io.LVMS_BOUNDS[0]} + {_io.LVMS_BOUNDS[1]} (midline)"
     x, y = centre[:, 0].copy(), centre[:, 1].copy()
+    how = "midline"
     if bridge_seam:
+        # the generated bounds' closure artefact (LVMS_SEAM_M: before and after the first point
+        # in the driving direction; the seam lies between the last point and the first)
         x, y = bridge_closure(x, y, *LVMS_SEAM_M)
-        src = (f"{src[:-1]}, closure artefact bridged over {LVMS_SEAM_M[0]:g} m before and "
-               f"{LVMS_SEAM_M[1]:g} m after the first point)")
+        how += (f", closure artefact bridged over {LVMS_SEAM_M[0]:g} m before and "
+                f"{LVMS_SEAM_M[1]:g} m after the first point")
+    src = f"{_io.LVMS_BOUNDS[0]} + {_io.LVMS_BOUNDS[1]} ({how})"
     return TrackPoints(_io.LVMS_NAME, src, x, y, half.copy(), half.copy(), True)
 
 
@@ -271,11 +293,5 @@ def load_track(
     contributors" (data/tracks/PROVENANCE.md). Licenses: LGPL-3.0 (tracks), GPL-3.0 (recording).
     """
     pts = read_track_points(name_or_path, raceline=raceline)
-    if smoothing_length is None:
-        smoothing_length = (LVMS_SMOOTHING_LENGTH if pts.name == _io.LVMS_NAME
-                            else DEFAULT_SMOOTHING_LENGTH)
-    c = closed if closed is not None else pts.closed
-    name = f"{pts.name} raceline" if raceline else pts.name
-    return Track.from_points(pts.x, pts.y, w_left=pts.w_left, w_right=pts.w_right, closed=c,
-                             ds=ds, smoothing_length=smoothing_length, name=name,
-                             source=pts.source)
+    return pts.to_track(closed=closed, ds=ds, smoothing_length=smoothing_length,
+                        name=f"{pts.name} raceline" if raceline else None)
