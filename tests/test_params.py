@@ -292,3 +292,15 @@ def test_vehicle_and_tire_names_ignore_surrounding_blanks():
     assert load_tire(" commonroad ") == load_tire("commonroad")
     with pytest.raises(ValueError, match=r"^tire  peugeot406\.toml: file not found: "):
         load_tire(" peugeot406.toml")
+
+
+@pytest.mark.parametrize("value", ["car.v2", "cars/mine", "cars\\mine"])
+def test_a_value_that_looks_like_a_path_is_a_missing_file_for_every_loader(value):
+    """One rule (flatfree._names.looks_like_path) for the vehicle, tyre, track and recording
+    loaders and a scenario file's values: a folder separator or a suffix makes a path, so a
+    missing one is "file not found", not an unknown name."""
+    from flatfree.tracks import load_recording, load_track
+
+    for load in (load_vehicle, load_tire, load_track, load_recording):
+        with pytest.raises(ValueError, match="file not found"):
+            load(value)

@@ -10,9 +10,10 @@ from __future__ import annotations
 import functools
 import os
 from collections.abc import Callable
+from pathlib import PurePath
 from typing import Any
 
-__all__ = ["bundled_name"]
+__all__ = ["bundled_name", "looks_like_path"]
 
 
 @functools.cache
@@ -40,3 +41,10 @@ def bundled_name(name: Any, names: tuple[Callable[[], list[str]], ...],
     if suffix is not None:
         key = key.removesuffix(suffix)
     return _by_lower(*names).get(key)
+
+
+def looks_like_path(text: str) -> bool:
+    """True for a value the loaders read as a file path even where no such file exists (their
+    error is then "file not found", not "unknown name"): one with a folder separator or a file
+    suffix. No bundled name has either."""
+    return "/" in text or "\\" in text or os.sep in text or bool(PurePath(text).suffix)

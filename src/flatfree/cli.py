@@ -484,9 +484,9 @@ def _positive_float(ctx, param, value):
 
 
 def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
-    """The scenario a run starts from: a TOML file, a named scenario, or the default; and
-    whether ``vehicle`` is in it already: a named track scenario takes it from
-    ``named_scenario(vehicle=...)`` (the car in its description, its natural-output tuning)."""
+    """The scenario a run starts from: a TOML file, a named scenario, or the default. A named
+    track scenario takes ``vehicle`` from ``named_scenario(vehicle=...)`` (the car in its
+    description, its natural-output tuning)."""
     from flatfree.scenario import load_scenario
 
     if spec is None:
@@ -495,7 +495,7 @@ def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
         p = Path(spec)
         if p.is_file() or spec.lower().endswith(".toml"):
             try:
-                return load_scenario(p), False
+                return load_scenario(p)
             except ValueError as exc:
                 raise _fail(str(exc)) from None
     mod = _scenarios_module()
@@ -503,8 +503,8 @@ def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
         raise _fail(f"unknown scenario {spec!r}: give a TOML file, or a named scenario: "
                     f"{', '.join(mod.SCENARIO_NAMES)}")
     if vehicle is not None and not spec.startswith("recorded"):  # the recorded: their own car
-        return _named(spec, vehicle=vehicle), True
-    return _named(spec), False
+        return _named(spec, vehicle=vehicle)
+    return _named(spec)
 
 
 def build_scenario(spec: str | None = None, *, controller: str | None = None,
@@ -531,7 +531,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
 
     if track is not None and recording is not None:
         raise _fail("give --track or --recording, not both")
-    sc, with_vehicle = _load_base(spec, recording, vehicle)
+    sc = _load_base(spec, recording, vehicle)
     try:
         changes: dict[str, Any] = {}
         ctrl_settings = dict(sc.controller_settings)
@@ -549,9 +549,9 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if recording is not None:
             changes["reference"] = dataclasses.replace(sc.reference, track=None,
                                                        recording=recording)
-        if vehicle is not None and not with_vehicle:
-            # a file's or a recorded scenario's car: the same change (tuning as below), the
-            # description is the file's own
+        if vehicle is not None:
+            # a file's or a recorded scenario's car, with its tuning as below (the description
+            # is the file's own); a named track scenario has it already (_load_base): no change
             changes["vehicle"] = vehicle
             natural = _scenarios_module().natural_settings
             if changes.get("controller", sc.controller) == "mfc-natural" and vehicle != sc.vehicle:

@@ -105,6 +105,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from flatfree._names import looks_like_path
 from flatfree._validate import (
     as_real,
     finite,
@@ -114,6 +115,7 @@ from flatfree._validate import (
     whole,
 )
 from flatfree.sensors import SENSOR_CHANNELS, SensorChannel, SensorSuite
+from flatfree.vehicles.params import bundled_name as bundled_vehicle
 
 __all__ = [
     "CONTROLLERS",
@@ -151,9 +153,9 @@ def _bundled(value: Any, kind: str) -> str | None:
     """The bundled ``kind`` (``"vehicle"``, ``"track"``, ``"recording"``) that ``value`` names,
     in its own spelling, by the loaders' own lookup; None if none."""
     if kind == "vehicle":
-        from flatfree.vehicles.params import bundled_name  # late: keeps the import light
-
-        return bundled_name(value)
+        return bundled_vehicle(value)
+    # late: importing flatfree.tracks loads its compiled kernels (the first Scenario with a
+    # track or a recording pays it, an import of this module does not)
     from flatfree.tracks._io import bundled_name
 
     return bundled_name(value, kind)
@@ -484,7 +486,7 @@ def _anchored(value: Any, folder: Path, kind: str) -> Any:
     name = _bundled(text, kind)
     if name is not None:
         return name
-    if "/" in text or os.sep in text or Path(text).suffix:
+    if looks_like_path(text):
         return full
     return text  # neither a file nor a name: the loader's error names it as written
 
@@ -683,7 +685,9 @@ def _scenario_from_doc(doc: dict[str, Any], where: _Where,
                          for i, p in enumerate(patches)),
     })
     faults = where.tables(doc.get("fault", []), "fault")
-    for i, f in enumerate(faults):  # the kind first: it decides which other keys a fault needs
+    # each fault's kind is checked before its keys, so that a fault with an unknown kind and a
+    # missing key is reported by its kind (the first thing wrong with it)
+    for i, f in enumerate(faults):
         if "kind" in f:
             try:
                 _choice("fault.kind", f["kind"], FAULT_KINDS)

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from flatfree._names import bundled_name as _bundled_name
+from flatfree._names import looks_like_path
 
 __all__ = [
     "MIN_POINTS",
@@ -128,7 +129,7 @@ def resolve(name_or_path: str | Path, kind: str) -> tuple[Any, str]:
         folder = _FOLDERS[kind] if own else _RECORDINGS
         return folder / f"{name}.csv", f"{name}.csv"
     key = str(name_or_path).strip()
-    if p.suffix or "/" in key or "\\" in key:
+    if looks_like_path(key):
         raise ValueError(f"{kind} file not found: {str(name_or_path)!r}")
     names = _NAMES[kind]()
     extra = f"; or a recording: {', '.join(recording_names())}" if kind == "track" else ""

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from flatfree._names import bundled_name as _bundled_name
+from flatfree._names import looks_like_path
 from flatfree._validate import finite, in_range, nonnegative, positive
 from flatfree.units import G
 
@@ -364,8 +365,9 @@ def bundled_name(name: Any, kind: str = "vehicle") -> str | None:
 
     The one name lookup of the loaders (:func:`load_vehicle`, :func:`load_tire`), shared with
     the tracks' (:mod:`flatfree._names`): case-insensitive, surrounding blanks ignored; a
-    ``.toml`` suffix is not (a loader reads a value naming an existing file, or ending in
-    ``.toml``, as that file first). Anything but a ``str`` or ``os.PathLike`` is no name (None).
+    ``.toml`` suffix is not (a loader reads a value naming an existing file, or looking like a
+    path, :func:`flatfree._names.looks_like_path`, as that file first). Anything but a
+    ``str`` or ``os.PathLike`` is no name (None).
     """
     if kind not in _NAMES:
         raise ValueError(f"kind = {kind!r}: must be one of {', '.join(_NAMES)}")
@@ -373,11 +375,11 @@ def bundled_name(name: Any, kind: str = "vehicle") -> str | None:
 
 
 def _resolve(name_or_path: str | Path, folder, kind: str):
-    """The file of ``name_or_path``: a path when it names an existing file or ends in
-    ``.toml`` (a missing one: the reader's "file not found"), else a bundled name
-    (:func:`bundled_name`)."""
+    """The file of ``name_or_path``: a path when it names an existing file or looks like one
+    (:func:`flatfree._names.looks_like_path`: a missing one gives the reader's "file not
+    found"), else a bundled name (:func:`bundled_name`)."""
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.is_file():
+    if p.is_file() or looks_like_path(str(name_or_path)):
         return p
     name = bundled_name(name_or_path, kind)
     if name is None:
