@@ -370,6 +370,12 @@ def test_run_out_writes_files_and_round_trips_the_scenario(runner, tmp_path):
     for stem in ("fig4_paths", "fig5_errors", "fig6_inputs", "f_estimates", "track_map"):
         assert (out / "figures" / f"{stem}.png").is_file()
         assert (out / "figures" / f"{stem}.svg").is_file()
+    # the closing line names every file it wrote, each of which exists
+    line = res.stdout.strip().splitlines()[-1]
+    assert line.startswith(f"wrote {out}/: ")
+    for name in ("report.html", "scenario.toml", "metrics.json", "trajectory.parquet",
+                 "trajectory.csv", "figures/"):
+        assert name in line and (out / name.rstrip("/")).exists(), name
 
 
 def test_run_csv_needs_out(runner):
@@ -508,6 +514,25 @@ def test_noise_flag_without_noisy_sensors_says_so(runner, tmp_path):
     res = _invoke(runner, ["run", str(f), "--noise", "--json"])
     assert "--noise has no effect" in res.stderr
     assert json.loads(res.stdout)["noise"] is True
+    # a seed changes nothing either: said, and the header does not claim a seeded noise
+    res = _invoke(runner, ["run", str(f), "--seed", "2"])
+    assert "--seed has no effect" in res.stderr
+    assert "noise on but no sensor has random noise" in res.stdout
+    assert "seed" not in res.stdout.splitlines()[0]
+    # a drift alone is random noise: no note, and the header names the seed
+    f.write_text(f.read_text() + "[sensors.y]\nmarkov_std = 0.01\nmarkov_tau_s = 60.0\n")
+    res = _invoke(runner, ["run", str(f), "--noise", "--seed", "2"])
+    assert "no effect" not in res.stderr
+    assert res.stdout.splitlines()[0].endswith("noise on, seed 2")
+
+
+def test_sensor_suite_knows_whether_it_draws_random_numbers():
+    from flatfree.sensors import SensorChannel, SensorSuite
+
+    assert not SensorSuite({"y": SensorChannel(bias=0.1, delay_s=0.01)}).random
+    assert SensorSuite({"y": SensorChannel(noise_std=1e-3)}).random
+    assert SensorSuite({"y": SensorChannel(markov_std=1e-3, markov_tau_s=10.0)}).random
+    assert not SensorSuite({"y": SensorChannel(noise_std=1e-3)}).noise_free().random
 
 
 def test_run_on_a_users_track_csv(runner, tmp_path):

@@ -117,6 +117,13 @@ def test_rows_one_per_run_with_known_numbers_and_missing_runs():
                                                    rel=1e-4)
     assert rows[1]["status"] == "not run: not wired yet" and rows[1]["lat_max_cm"] == "-"
     assert rows[2]["agrees"] == "-"  # a run that left the track is not compared
+    # a miss says which side of the paper's bound: the paper's flatness run had yaw > 10 deg
+    # (smaller is no defect), its natural-output run < 2 cm (larger is one)
+    flat = RunResult(label="flatness", scenario=sc.with_(controller="flatness"), trajectory=tr,
+                     metrics=_metrics(0.15, 2.4))
+    late = RunResult(label="mfc-natural", scenario=sc, trajectory=tr, metrics=_metrics(0.03, 0.4))
+    assert [r["agrees"] for r in comparison_rows([flat, late])] == ["yes, no, smaller",
+                                                                     "no, larger, yes"]
     text = format_table([ok, missing, bad])
     assert "flatness: not run: not wired yet" in text
     assert all(lbl in text for lbl in ("mfc-natural", "mfc-flat", "flatness"))

@@ -42,7 +42,79 @@ def test_csv_round_trip_is_exact_with_status_and_meta(tmp_path, kw):
     _same(tr, Trajectory.from_csv(path))
     side = json.loads((tmp_path / "run.csv.json").read_text())
     assert side["status"] == tr.status.value
-    assert json.loads(side["status_time"]) == tr.status_time
+    assert side["status_time"] == tr.status_time
+
+
+def test_csv_sidecar_is_plain_json_read_with_one_loads(tmp_path):
+    """The sidecar is one JSON object whose values are JSON values, not JSON texts: units and
+    meta objects, status_time a number or null (the sidecar once held the Parquet metadata's
+    texts, units and meta as JSON texts and status_time as the text "null", which took two
+    json.loads). Meta values that are not JSON-native are written as str(value) and read back
+    as that text."""
+    meta = {"seed": 3, "scenario": "paper", "real_time_factor": 1234.5, "noise": False,
+            "gains": [1.0, 2.5], "tuning": {"alpha": 0.5, "note": None}, "count": np.int64(7)}
+    tr = _traj(meta=meta)
+    path = tr.to_csv(tmp_path / "run.csv")
+    side = json.loads((tmp_path / "run.csv.json").read_text())
+    assert side == {"units": {"time": "s", **UNITS}, "status": "completed",
+                    "status_time": None, "meta": {**meta, "count": "7"}}
+    assert isinstance(side["units"], dict) and side["status_time"] is None
+    back = Trajectory.from_csv(path)
+    assert dict(back.meta) == {**meta, "count": "7"} and back.status_time is None
+    left = _traj(status=Status.LEFT_TRACK, status_time=0.005)
+    left.to_csv(tmp_path / "left.csv")
+    side = json.loads((tmp_path / "left.csv.json").read_text())
+    assert side["status"] == "left_track" and side["meta"] == {}
+    assert type(side["status_time"]) is float and side["status_time"] == 0.005
+
+
+@pytest.mark.parametrize("kw", [
+    dict(meta={"seed": 3, "scenario": "paper"}),
+    dict(status=Status.LEFT_TRACK, status_time=0.005, meta={"seed": 4}),
+])
+def test_csv_reads_sidecars_of_the_old_form_with_json_texts(tmp_path, kw):
+    """A sidecar written before the fix, its units, status time and meta as JSON texts inside
+    the JSON, reads back as the new form does."""
+    tr = _traj(**kw)
+    path = tr.to_csv(tmp_path / "run.csv")
+    old = {"units": json.dumps({"time": "s", **UNITS}), "status": tr.status.value,
+           "status_time": json.dumps(tr.status_time), "meta": json.dumps(dict(tr.meta))}
+    (tmp_path / "run.csv.json").write_text(json.dumps(old, indent=1) + "\n")
+    _same(tr, Trajectory.from_csv(path))
+
+
+def test_parquet_metadata_stays_json_texts(tmp_path):
+    """Parquet schema metadata holds texts: the units, status time and meta as JSON texts, the
+    status as it is (the format the CSV sidecar no longer shares)."""
+    import pyarrow.parquet as pq
+
+    tr = _traj(status=Status.LEFT_TRACK, status_time=0.005, meta={"seed": np.int64(3)})
+    md = pq.read_schema(tr.to_parquet(tmp_path / "run.parquet")).metadata
+    assert json.loads(md[b"flatfree.units"]) == {"time": "s", **UNITS}
+    assert md[b"flatfree.status"] == b"left_track"
+    assert md[b"flatfree.status_time"] == b"0.005"
+    assert json.loads(md[b"flatfree.meta"]) == {"seed": "3"}
+    assert dict(Trajectory.from_parquet(tmp_path / "run.parquet").meta) == {"seed": "3"}
+    done = _traj()
+    md = pq.read_schema(done.to_parquet(tmp_path / "done.parquet")).metadata
+    assert md[b"flatfree.status_time"] == b"null" and md[b"flatfree.meta"] == b"{}"
+
+
+@pytest.mark.parametrize(("key", "value", "problem"), [
+    ("units", ["m"], "expected an object"),
+    ("meta", "{not json", "not JSON"),
+    ("status_time", True, "expected a number or null"),
+    ("status_time", "\"0.5\"", "expected a number or null"),
+])
+def test_csv_sidecar_of_the_wrong_types_is_named(tmp_path, key, value, problem):
+    tr = _traj()
+    path = tr.to_csv(tmp_path / "run.csv")
+    side = tmp_path / "run.csv.json"
+    desc = json.loads(side.read_text())
+    side.write_text(json.dumps({**desc, key: value}))
+    msg = f"{path}: {key} = {value!r} in run.csv.json: {problem}"
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        Trajectory.from_csv(path)
 
 
 def test_csv_is_plain_for_common_readers(tmp_path):

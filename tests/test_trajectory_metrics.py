@@ -6,11 +6,12 @@ import dataclasses
 import json
 import math
 import re
+import warnings
 
 import numpy as np
 import pytest
 
-from flatfree.metrics import Metrics, compute_metrics, wrap_angle
+from flatfree.metrics import Metrics, compute_metrics, no_sample_after_startup, wrap_angle
 from flatfree.trajectory import Status, Trajectory
 
 UNITS = {"lateral_error": "m", "yaw_error": "rad", "vx": "m/s", "vx_ref": "m/s",
@@ -109,24 +110,80 @@ def test_missing_signal_and_bad_startup():
 
 def test_metrics_are_nan_when_no_sample_follows_the_startup_interval():
     """compute_metrics docstring: NaN where no sample lies after the start-up interval (a
-    start-up longer than the run, or an empty trajectory); status, duration and the
-    real-time factor are still reported, and to_dict gives None for every NaN. A start-up
-    ending exactly on the last sample keeps that sample (t >= startup_s)."""
+    start-up longer than the run, or an empty trajectory), with a RuntimeWarning; status,
+    duration and the real-time factor are still reported, and to_dict gives None for every NaN.
+    A start-up ending exactly on the last sample keeps that sample (t >= startup_s)."""
     errors = [f.name for f in dataclasses.fields(Metrics)
               if f.name not in ("status", "duration_s", "real_time_factor")]
-    m = compute_metrics(_traj(meta={"real_time_factor": 50.0}), startup_s=2.5)
+    with pytest.warns(RuntimeWarning, match="every metric is NaN"):
+        m = compute_metrics(_traj(meta={"real_time_factor": 50.0}), startup_s=2.5)
     assert [name for name in errors if not math.isnan(getattr(m, name))] == []
     assert (m.status, m.duration_s, m.real_time_factor) == ("completed", 2.0, 50.0)
     d = m.to_dict()
     assert all(d[name] is None for name in errors)
     assert (d["status"], d["duration_s"], d["real_time_factor"]) == ("completed", 2.0, 50.0)
     empty = Trajectory(time=np.empty(0), signals={k: np.empty(0) for k in UNITS}, units=UNITS)
-    e = compute_metrics(empty, startup_s=0.0)
+    with pytest.warns(RuntimeWarning, match="every metric is NaN"):
+        e = compute_metrics(empty, startup_s=0.0)
     assert [name for name in errors if not math.isnan(getattr(e, name))] == []
     assert e.duration_s == 0.0
-    last = compute_metrics(_traj(), startup_s=2.0)  # only the sample t = 2 s: cos(20 pi) = 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # one sample left: no warning
+        last = compute_metrics(_traj(), startup_s=2.0)  # only the sample t = 2 s: cos(20 pi) = 1
     assert last.speed_error_rms_mps == pytest.approx(0.3, rel=1e-12)
     assert last.torque_rms_nm == 300.0
+
+
+def _startup_warning(tr, startup_s):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = compute_metrics(tr, startup_s=startup_s)
+    assert [w.category for w in caught] == [RuntimeWarning]
+    assert caught[0].filename == __file__  # stacklevel: the caller's line
+    return m, str(caught[0].message)
+
+
+def test_a_log_within_the_startup_interval_warns_with_its_numbers():
+    """The user's case, ff.compute_metrics(ff.simulate(named_scenario("paper",
+    duration_s=2.0)), startup_s=5), built directly: a log ending at 1.99 s (10 ms log) and a
+    start-up of 5 s gave every metric NaN, status 'completed', and no word of why. The warning
+    names the log's last time, startup_s, where the interval starts when the log does not
+    start at 0, how a run that did not complete stopped, and what to change."""
+    tr = _traj(n=200, dt=0.01)
+    assert tr.time[-1] == pytest.approx(1.99)
+    m, msg = _startup_warning(tr, 5)
+    assert math.isnan(m.lateral_error_max_m) and m.status == "completed"
+    assert msg == ("compute_metrics: every metric is NaN but status, duration and real-time "
+                   "factor: the log ends at t = 1.99 s, within the start-up interval of "
+                   "startup_s = 5 s that the metrics leave out; simulate longer or pass a "
+                   "shorter startup_s")
+    late = Trajectory(time=tr.time + 3.0, signals=tr.signals, units=UNITS,
+                      status=Status.LEFT_TRACK, status_time=4.995)
+    m, msg = _startup_warning(late, 2.5)
+    assert m.status == "left_track" and math.isnan(m.yaw_error_rms_deg)
+    assert msg == ("compute_metrics: every metric is NaN but status, duration and real-time "
+                   "factor: the log ends at t = 4.99 s, within the start-up interval of "
+                   "startup_s = 2.5 s from the first sample at t = 3 s that the metrics leave "
+                   "out (the run stopped at t = 4.995 s: left_track); simulate longer or pass "
+                   "a shorter startup_s")
+    empty = Trajectory(time=np.empty(0), signals={k: np.empty(0) for k in UNITS}, units=UNITS)
+    _, msg = _startup_warning(empty, 1.0)
+    assert msg == ("compute_metrics: every metric is NaN but status, duration and real-time "
+                   "factor: the trajectory has no sample (startup_s = 1 s); simulate longer or "
+                   "pass a shorter startup_s")
+
+
+@pytest.mark.parametrize("startup_s", [0.0, 1.0, 1.999, 2.0])
+def test_no_startup_warning_when_a_sample_is_left(startup_s):
+    """Warnings as errors: a run with samples after the start-up interval (the last one
+    included, t >= startup_s) computes without a warning; no_sample_after_startup agrees."""
+    tr = _traj()
+    assert not no_sample_after_startup(tr, startup_s)
+    assert no_sample_after_startup(tr, 2.0 + 1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = compute_metrics(tr, startup_s=startup_s)
+    assert math.isfinite(m.lateral_error_max_m) and math.isfinite(m.torque_rms_nm)
 
 
 def test_to_dict_turns_every_non_finite_number_into_none():

@@ -593,6 +593,23 @@ def _simulate_collecting(sc, warned: list[str]):
             warned.extend(str(w.message) for w in caught)
 
 
+def _metrics_collecting(tr, sc, warned: list[str] | None):
+    """compute_metrics(tr) at the scenario's start-up interval, its warning (every metric NaN:
+    the log ends within that interval) appended to ``warned`` as text instead of shown, or
+    dropped with ``warned=None`` (``flatfree run`` says it in its own note,
+    :func:`_note_short_or_capped`)."""
+    import warnings
+
+    from flatfree.metrics import compute_metrics
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = compute_metrics(tr, startup_s=sc.timing.startup_s)
+    if warned is not None:
+        warned.extend(str(w.message) for w in caught)
+    return m
+
+
 def _reference_end(sc, ref) -> str:
     """Where a run ends at the latest: the end of its reference path, how long its reference
     ``ref`` lasts, and the setting that makes it longer (reference.laps on a closed track)."""
@@ -743,7 +760,6 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
     without it the paper's scenario (or, with --recording, the recorded one) is the base, and
     the options change it; --set changes any field, last.
     """
-    from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult, format_table
 
     if with_csv and out_dir is None:
@@ -754,13 +770,15 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
                         recording=recording, vehicle=vehicle, cf_scale=cf_scale,
                         cr_scale=cr_scale, noise=noise, seed=seed, duration_s=duration_s,
                         settings=settings)
-    if noise and not any(c.noise_std > 0 for c in sc.sensors.channels.values()):
-        _err(f"note: --noise has no effect: scenario {sc.name!r} gives no sensor a noise_std")
+    if sc.noise and not sc.sensors.random and (noise or seed is not None):
+        given = " and ".join(o for o, v in (("--noise", noise), ("--seed", seed is not None)) if v)
+        _err(f"note: {given} has no effect: scenario {sc.name!r} gives no sensor random noise "
+             "(a noise_std or a markov_std)")
     with _out_dir(out_dir):
         # the reference the run was built on, for the notes, the recorded steer and the figures
         tr, reference = _simulate(sc)
         _note_short_or_capped(sc, tr, reference)
-        m = compute_metrics(tr, startup_s=sc.timing.startup_s)
+        m = _metrics_collecting(tr, sc, None)
         extra: dict[str, float] = {}
         rec = None
         if sc.reference.recording is not None:
@@ -778,15 +796,23 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         click.echo(json.dumps(_round_times(payload)))
     else:
         where = sc.reference.track or sc.reference.recording
+        if not sc.noise:
+            noise_txt = "noise off"
+        elif sc.sensors.random:
+            noise_txt = f"noise on, seed {sc.seed}"
+        else:
+            noise_txt = "noise on but no sensor has random noise"
         click.echo(f"{sc.name}: {sc.controller} on {where}, {sc.vehicle}, {sc.plant} plant, "
-                   f"noise {'on' if sc.noise else 'off'}, seed {sc.seed}")
+                   f"{noise_txt}")
         click.echo(format_table([result]))
         for k, v in extra.items():
             click.echo(f"{k}: {v:.3f}")
         if tr.status_time is not None:
             click.echo(f"the run stopped at t = {tr.status_time:.2f} s: {tr.status.value}")
         if out_dir is not None:
-            click.echo(f"wrote {out_dir}/report.html")
+            click.echo(f"wrote {out_dir}/: report.html, scenario.toml, metrics.json, "
+                       f"trajectory.parquet{', trajectory.csv (+ .json)' if with_csv else ''}"
+                       ", figures/ (files of the same names replaced)")
     if not tr.completed:
         sys.exit(1)
 
@@ -795,6 +821,8 @@ def _note_short_or_capped(sc, tr, reference) -> None:
     """Notes on stderr when the run's length explains its results: it ended at the end of the
     reference path before the requested duration, or within the start-up interval that the
     metrics leave out (every metric then null). ``reference``: the run's reference."""
+    from flatfree.metrics import no_sample_after_startup
+
     t = tr.time
     requested = sc.timing.duration_s
     if (tr.completed and requested is not None and t.size
@@ -802,7 +830,7 @@ def _note_short_or_capped(sc, tr, reference) -> None:
         _err(f"note: the run ended at {t[-1]:.2f} s, not at the requested duration of "
              f"{requested:g} s (timing.duration_s): {_reference_end(sc, reference)}")
     startup = sc.timing.startup_s
-    if not np.any(t >= (t[0] if t.size else 0.0) + startup):
+    if no_sample_after_startup(tr, startup):
         end = f"its log ends at {t[-1]:.2f} s" if t.size else "it logged nothing"
         _err(f"note: every metric is null: {end}, within the start-up interval of "
              f"timing.startup_s = {startup:g} s that the metrics leave out; run longer "
@@ -897,14 +925,13 @@ def _try_run(label: str, sc, warned: list[str]):
     """``(RunResult, reference)``: the run and the reference it ran on, or why it could not be
     made (a ValueError of the engine) and None; the library's warnings of the run are appended
     to ``warned``."""
-    from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult
 
     try:
         tr, ref = _simulate_collecting(sc, warned)
     except ValueError as exc:
         return RunResult(label=label, scenario=sc, error=str(exc)), None
-    m = compute_metrics(tr, startup_s=sc.timing.startup_s)
+    m = _metrics_collecting(tr, sc, warned)
     return RunResult(label=label, scenario=sc, trajectory=tr, metrics=m), ref
 
 

@@ -36,6 +36,7 @@ every controller); the default is :data:`DEFAULT_STARTUP_S`.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -91,6 +92,14 @@ def _max_abs(x: np.ndarray) -> float:
     return float(np.max(np.abs(x))) if x.size else math.nan
 
 
+def no_sample_after_startup(traj: Trajectory, startup_s: float) -> bool:
+    """True when no sample of ``traj`` lies at or after the start-up interval (``startup_s`` [s]
+    from its first sample; an empty trajectory has none): every error metric of
+    :func:`compute_metrics` is then NaN."""
+    t = traj.time
+    return not t.size or not bool(t[-1] >= t[0] + startup_s)
+
+
 def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -> Metrics:
     """Tracking metrics of a trajectory (definitions in the module docstring).
 
@@ -106,12 +115,33 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
     Returns
     -------
     Metrics
-        NaN where no sample lies after the start-up interval.
+        NaN where no sample lies after the start-up interval (status, duration and real-time
+        factor are still reported).
+
+    Warns
+    -----
+    RuntimeWarning
+        When no sample lies after the start-up interval (:func:`no_sample_after_startup`: the
+        log ends within it, or is empty), naming the log's last time and ``startup_s``: every
+        error metric is then NaN.
     """
     startup_s = nonnegative("startup_s", startup_s, "s")
     for name in ("lateral_error", "yaw_error", "vx", "vx_ref", "steer", "torque"):
         if name not in traj:
             raise ValueError(f"trajectory has no signal {name!r} needed by compute_metrics")
+    if no_sample_after_startup(traj, startup_s):
+        t = traj.time
+        if t.size:
+            start = "" if t[0] == 0.0 else f" from the first sample at t = {t[0]:g} s"
+            end = (f"the log ends at t = {t[-1]:g} s, within the start-up interval of "
+                   f"startup_s = {startup_s:g} s{start} that the metrics leave out")
+        else:
+            end = f"the trajectory has no sample (startup_s = {startup_s:g} s)"
+        if not traj.completed:
+            end += f" (the run stopped at t = {traj.status_time:g} s: {traj.status.value})"
+        warnings.warn(f"compute_metrics: every metric is NaN but status, duration and "
+                      f"real-time factor: {end}; simulate longer or pass a shorter startup_s",
+                      RuntimeWarning, stacklevel=2)
     t0 = traj.time[0] if len(traj) else 0.0
     part = traj.after(t0 + startup_s)
     ey = part["lateral_error"]

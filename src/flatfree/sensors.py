@@ -141,6 +141,12 @@ class SensorSuite:
                 raise ValueError(f"sensor {name!r}: expected a SensorChannel, got {ch!r}")
         object.__setattr__(self, "channels", MappingProxyType(dict(self.channels)))
 
+    @property
+    def random(self) -> bool:
+        """Whether any channel draws random numbers (a ``noise_std`` or a ``markov_std``): if
+        not, the run's seed changes nothing (a bias is a constant)."""
+        return any(c.noise_std > 0.0 or c.markov_std > 0.0 for c in self.channels.values())
+
     def noise_free(self) -> SensorSuite:
         """The same channels with zero noise and zero bias (rates and delays kept)."""
         return SensorSuite({

@@ -153,32 +153,60 @@ class Trajectory:
         """``{"time": ..., name: ...}``, in logging order."""
         return {"time": self.time, **self.signals}
 
-    def _description(self) -> dict[str, str]:
-        """Units, status, status time and meta as JSON texts (Parquet metadata, CSV sidecar)."""
-        import json
-
+    def _description(self) -> dict[str, Any]:
+        """Units (``time`` included), status, status time and meta, each as its natural JSON
+        type: the CSV sidecar as it is; :meth:`_description_texts` for the Parquet metadata."""
         return {
-            "units": json.dumps({"time": "s", **dict(self.units)}),
+            "units": {"time": "s", **dict(self.units)},
             "status": self.status.value,
-            "status_time": json.dumps(self.status_time),
-            "meta": json.dumps(dict(self.meta), default=str),
+            "status_time": None if self.status_time is None else float(self.status_time),
+            "meta": dict(self.meta),
         }
 
+    def _description_texts(self) -> dict[str, str]:
+        """:meth:`_description` with every value as a text, as Parquet schema metadata needs:
+        the status as it is, the others as JSON texts (meta values that are not JSON-native
+        written as ``str(value)``)."""
+        import json
+
+        return {k: v if isinstance(v, str) else json.dumps(v, default=str)
+                for k, v in self._description().items()}
+
     @classmethod
-    def _from_description(cls, path, desc: Mapping[str, str], cols: dict[str, np.ndarray],
+    def _from_description(cls, path, desc: Mapping[str, Any], cols: dict[str, np.ndarray],
                           where: str) -> Trajectory:
-        """The inverse of :meth:`_description` with the file's columns."""
+        """The inverse of :meth:`_description` with the file's columns.
+
+        ``desc`` holds the units, status time and meta either as their JSON values (the CSV
+        sidecar) or as JSON texts of them (the Parquet metadata, and CSV sidecars written before
+        the sidecar held plain JSON): a text is decoded once.
+        """
         import json
 
         missing = [k for k in ("units", "status", "status_time", "meta") if k not in desc]
         if missing:
             raise ValueError(f"{path}: not a flatfree trajectory (no {', '.join(missing)} in "
                              f"{where})")
-        units = json.loads(desc["units"])
+        got = {}
+        for key, kinds, expected in (("units", dict, "an object"), ("meta", dict, "an object"),
+                                     ("status_time", (int, float, type(None)),
+                                      "a number or null")):
+            value = desc[key]
+            if isinstance(value, str):
+                try:
+                    value = json.loads(value)
+                except ValueError:
+                    raise ValueError(f"{path}: {key} = {desc[key]!r:.80} in {where}: not "
+                                     "JSON") from None
+            if not isinstance(value, kinds) or isinstance(value, bool):
+                raise ValueError(f"{path}: {key} = {desc[key]!r:.80} in {where}: expected "
+                                 f"{expected}")
+            got[key] = value
+        units = got["units"]
         units.pop("time", None)
         time = cols.pop("time")
         return cls(time=time, signals=cols, units=units, status=Status(desc["status"]),
-                   status_time=json.loads(desc["status_time"]), meta=json.loads(desc["meta"]))
+                   status_time=got["status_time"], meta=got["meta"])
 
     def to_csv(self, path: str | Path) -> Path:
         """Write a plain CSV file and a JSON sidecar beside it; return the CSV's path.
@@ -187,8 +215,11 @@ class Trajectory:
         (every value as Python's shortest round-trip text, so :meth:`from_csv` reads the numbers
         back exactly): any CSV reader takes it as it is (numpy's ``genfromtxt(names=True)``,
         the ``csv`` module, pandas). The status, its time, the units and the meta, which a CSV
-        has no place for, go to ``<path>.json`` (e.g. ``run.csv.json``); :meth:`from_csv` reads
-        both.
+        has no place for, go to ``<path>.json`` (e.g. ``run.csv.json``), one JSON object read
+        with one ``json.loads``: ``units`` an object (name -> unit, ``time`` included),
+        ``status`` a text, ``status_time`` a number or null, ``meta`` an object (values that
+        are not JSON-native, e.g. a numpy integer, written as ``str(value)``, so read back as
+        text). :meth:`from_csv` reads both.
         """
         import json
 
@@ -202,12 +233,17 @@ class Trajectory:
             for row in data:
                 w.writerow([repr(float(x)) for x in row])
         side = _sidecar(path)
-        side.write_text(json.dumps(self._description(), indent=1) + "\n", encoding="utf-8")
+        side.write_text(json.dumps(self._description(), indent=1, default=str) + "\n",
+                        encoding="utf-8")
         return path
 
     @classmethod
     def from_csv(cls, path: str | Path) -> Trajectory:
-        """Read a file written by :meth:`to_csv` (the CSV and its ``.json`` sidecar)."""
+        """Read a file written by :meth:`to_csv` (the CSV and its ``.json`` sidecar).
+
+        Sidecars of earlier versions, which held the units, status time and meta as JSON texts
+        inside the JSON, are read too.
+        """
         import json
 
         path = Path(path)
@@ -242,7 +278,7 @@ class Trajectory:
 
         path = Path(path)
         table = pa.table({k: pa.array(v) for k, v in self.to_columns().items()})
-        meta = {f"flatfree.{k}".encode(): v.encode() for k, v in self._description().items()}
+        meta = {f"flatfree.{k}".encode(): v.encode() for k, v in self._description_texts().items()}
         table = table.replace_schema_metadata({**(table.schema.metadata or {}), **meta})
         pq.write_table(table, path)
         return path
