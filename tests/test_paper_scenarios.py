@@ -335,6 +335,21 @@ def test_named_scenario_takes_another_car_with_its_tuning():
     assert named_scenario("paper", vehicle=Path("my_car.toml")).vehicle == Path("my_car.toml")
 
 
+@pytest.mark.parametrize(
+    ("kw", "match"),
+    [
+        ({"track": "Nowhere"}, r"^unknown track 'Nowhere'; bundled names: Budapest, .*Spa; "),
+        ({"vehicle": "ferrari"}, r"^unknown vehicle 'ferrari'; valid names: bmw320i, "),
+    ],
+)
+def test_named_scenario_refuses_an_unknown_name_at_once(kw, match):
+    """A misspelt track or car fails where it was written, with the loader's message, not at
+    simulate(); a path is held (read at the run, as a Scenario's)."""
+    with pytest.raises(ValueError, match=match):
+        named_scenario("paper", **kw)
+    assert named_scenario("paper", track="tracks/mine.csv").reference.track == "tracks/mine.csv"
+
+
 def test_named_scenario_holds_bundled_names_in_their_own_spelling():
     """The car and the track in any spelling the loaders take: that car's tuning (the dallara
     in another spelling got the peugeot406's), and the names as `flatfree run` gives them."""

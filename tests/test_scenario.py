@@ -127,6 +127,8 @@ def test_noise_switch_keeps_rates_and_delays():
         ('[reference]\nj_lat_max = "inf"\n', ["line 2", "reference.j_lat_max", "'inf'"]),
         ('[sensors.y]\nnoise_std = true\n', ["line 2", "sensors.y.noise_std", "True"]),
         ('[road]\nbank_deg = [[0.0, true]]\n', ["road.bank_deg", "True"]),
+        # a bare number (a user's "constant bank") is named with the form to write instead
+        ('[road]\nbank_deg = 5\n', ["line 2", "road.bank_deg = 5", "[[0.0, 5.0]]"]),
         ('name = \n', ["malformed TOML", "line 1"]),
     ],
 )
@@ -182,11 +184,17 @@ def test_reference_names_and_laps_are_checked():
         (((0.0, 1.0), (0.0, 2.0)), r"road.bank_deg\[1\] = \(0.0, 2.0\): s must increase"),
         (((0.0, 95.0),), r"road.bank_deg\[0\] = \(0.0, 95.0\): .*within \(-90, 90\)"),
         (((1.0,),), r"road.bank_deg\[0\] = \(1.0,\): expected a pair"),
+        (5.0, r"road.bank_deg = 5.0: expected a list of \(s \[m\], bank \[deg\]\) points"),
     ],
 )
 def test_bad_bank_profiles_are_refused(bank, match):
     with pytest.raises(ValueError, match=match):
         RoadSpec(bank_deg=bank)
+
+
+def test_bad_patches_container_is_refused():
+    with pytest.raises(ValueError, match=r"road.patches = 3: expected a sequence"):
+        RoadSpec(patches=3)
 
 
 def test_reference_needs_exactly_one_source():
@@ -532,6 +540,7 @@ def test_setting_a_recording_replaces_the_track_and_back():
         (["sensors.y.noise_std=nan"], ["sensors.y.noise_std", "noise_std = nan", "finite"]),
         (["road.mu=0"], ["setting road.mu=0", "road.mu = 0.0", "> 0"]),
         (["road.bank_deg=[[0, 0], [0, 1]]"], ["road.bank_deg[1] = [0, 1]", "increase"]),
+        (["road.bank_deg=5"], ["setting road.bank_deg=5", "road.bank_deg = 5", "points"]),
         (["actuators.steer_delay_s=-0.1"], ["actuators.steer_delay_s = -0.1", ">= 0"]),
         # the error names the setting that broke a rule about another field
         (["seed=3", "timing.plant_dt_s=0.003"],

@@ -317,7 +317,15 @@ class RoadSpec:
 
     def __post_init__(self) -> None:
         positive("road.mu", self.mu, "-")
+        if not isinstance(self.patches, (tuple, list)):
+            raise ValueError(f"road.patches = {self.patches!r}: expected a sequence of "
+                             "FrictionPatch ([[road.patch]] tables in a file)")
         object.__setattr__(self, "patches", tuple(self.patches))
+        if not isinstance(self.bank_deg, (tuple, list)):
+            # a bare number reads as "a constant bank": say how to write one
+            raise ValueError(f"road.bank_deg = {self.bank_deg!r}: expected a list of "
+                             "(s [m], bank [deg]) points, e.g. [[0.0, 5.0]] for a constant "
+                             "5 deg bank")
         points = []
         for k, pt in enumerate(self.bank_deg):
             pair = [as_real(v) for v in pt] if isinstance(pt, (tuple, list)) else []

@@ -84,9 +84,11 @@ import os
 
 import numpy as np
 
+from flatfree._names import looks_like_path
 from flatfree.scenario import NOISE_FREE_SUFFIX, ReferenceSpec, Scenario, Timing, _canonical
 from flatfree.sensors import SensorChannel, SensorSuite
-from flatfree.vehicles.params import bundled_name
+from flatfree.tracks._io import resolve as resolve_track
+from flatfree.vehicles.params import bundled_name, load_vehicle
 
 __all__ = [
     "DEFAULT_TRACK",
@@ -205,9 +207,10 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
     name : str
         A scenario name; ``-noise-free`` suffix for the noise-free variant.
     track : str, optional
-        Another bundled track for the track scenarios (default :data:`DEFAULT_TRACK`; held in
-        its own spelling, as the car: ``"monza"`` gives ``"Monza"``); an error for
-        ``recorded``.
+        Another bundled track for the track scenarios, or a track CSV file's path (default
+        :data:`DEFAULT_TRACK`; held in its own spelling, as the car: ``"monza"`` gives
+        ``"Monza"``); an error for ``recorded`` and for a name that is not bundled
+        (``ValueError`` here; a path is read at the run).
     seed : int
         Seed of the sensor noise.
     duration_s : float, optional
@@ -219,7 +222,8 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         (:func:`natural_settings`: alpha_lat is tied to the car), as ``flatfree run
         --vehicle`` does. (``scenario.with_(vehicle=...)`` changes the car and
         keeps every other setting, the tuning included.) An error for the recorded scenarios,
-        whose car is the recording's.
+        whose car is the recording's, and for a name that is not bundled (``ValueError`` here;
+        a path is read at the run).
 
     Returns
     -------
@@ -245,6 +249,12 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
             controller_settings=natural_settings("dallara_av21", imu=imu),
             reference=ReferenceSpec(track=None, recording=RECORDING), timing=timing,
             sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
+    # a name no loader knows is refused here, not at simulate() (the loaders' own lookups and
+    # messages); a file's path is held as a Scenario holds it, read at the run
+    if isinstance(track, str) and not looks_like_path(track):
+        resolve_track(track, "track")
+    if isinstance(vehicle, str) and not looks_like_path(vehicle):
+        load_vehicle(vehicle)  # a bundled preset's (or a suffix-less file's) small TOML
     controller, settings = _BASE[base]
     car = "peugeot406" if vehicle is None else vehicle
     if controller == "mfc-natural":
