@@ -18,6 +18,16 @@ def test_every_public_name_resolves(name):
     assert obj is getattr(importlib.import_module(flatfree._API[name]), name)
 
 
+def test_dir_lists_the_public_names_not_the_module_s_own_imports():
+    """Tab completion shows the API (and subpackages once imported), not ``importlib``."""
+    import flatfree.tracks  # a subpackage, imported: listed
+
+    names = dir(flatfree)
+    assert set(flatfree.__all__) <= set(names)
+    assert "tracks" in names
+    assert not {"importlib", "Any", "annotations", "_API"} & set(names)
+
+
 def test_unknown_name_raises_attribute_error():
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         flatfree.nope  # noqa: B018

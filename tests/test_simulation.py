@@ -613,8 +613,13 @@ def test_natural_output_controller_holds_limits_and_refuses_bad_input():
     c = NaturalOutputController(dt=0.001, actuators=act,
                                 settings=MfcNaturalSettings(yaw_damping=0.0))
     c.reset(steer0=0.02, torque0=100.0)
-    # before the windows are full the held inputs come back (the actuators' positions)
-    assert c.step(vx=20.0, r=0.0, e_y=0.0, kappa=0.0, vx_ref=20.0) == (100.0, 0.02)
+    # before the windows are full the held inputs come back (the actuators' positions): the
+    # first window - 1 = 99 steps (step's docstring), then the laws act
+    held = [c.step(vx=20.0 + 0.01 * k, r=0.0, e_y=0.01, kappa=0.0, vx_ref=21.0)
+            for k in range(100)]
+    assert held[:99] == [(100.0, 0.02)] * 99
+    assert held[99][0] != 100.0 and held[99][1] != 0.02
+    c.reset(steer0=0.02, torque0=100.0)
     # a 10 m step of lateral deviation: once the window is full the law asks for more steer
     # than the car has; the command reaches the actuators' range and stays within it
     steers = [c.step(vx=20.0, r=0.0, e_y=10.0, kappa=0.0, vx_ref=20.0)[1] for _ in range(300)]

@@ -68,4 +68,9 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_API))
+    """The public names and the subpackages imported so far (not this module's own imports:
+    ``importlib``, ``Any``, ``annotations``)."""
+    subpackages = {n for n, v in globals().items()
+                   if getattr(v, "__name__", "").startswith("flatfree.")
+                   and type(v).__name__ == "module"}
+    return sorted(set(__all__) | subpackages)

@@ -1079,6 +1079,8 @@ class IntelligentController(CompiledController):
     ) -> float:
         """One sample: measurement ``y`` at ``t_k`` and the reference; returns the applied ``u_k``.
 
+        Until the estimator's window is full (its first ``window - 1`` samples) the output is
+        the start value ``u0`` (a bumpless start, module docstring), not the law's.
         See :func:`intelligent_step`. Each argument must be one real number (``ValueError``
         naming it otherwise: text, ``None``, an array); a non-finite ``y`` or reference is a
         missing sample (the previous output is held, module docstring). The returned output is

@@ -1015,6 +1015,11 @@ class NaturalOutputController:
              e_y_ddot: float = math.nan) -> tuple[float, float]:
         """One control step: returns (wheel torque [N m], road-wheel steer [rad]).
 
+        A bumpless start: until its estimator's window is full (the first ``window_lon - 1``
+        and ``window_lat - 1`` steps, 0.1 s at the default settings) each loop gives its
+        start value, the :meth:`reset`'s ``torque0`` and ``steer0``; the yaw damper
+        (``yaw_damping``) adds to the steer from the first step.
+
         Parameters
         ----------
         vx : float
