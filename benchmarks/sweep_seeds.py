@@ -69,8 +69,8 @@ def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict,
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenario", default="paper",
-                    help="paper (default), paper-flatness, ... or recorded (then --tracks is "
-                         "ignored: the recording's reference)")
+                    help="paper (default), paper-flatness, ... or recorded / recorded-imu (then "
+                         "--tracks is ignored: the recording's reference)")
     ap.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
     ap.add_argument("--tracks", default=",".join(track_names()),
                     help="comma-separated bundled tracks (default: all)")
@@ -86,7 +86,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"scenario {base}, seeds 0-{args.seeds - 1}, vehicle {args.vehicle or 'default'}, "
           f"settings {settings or 'default'}, drive limit {args.drive_limit}")
     t0 = time.perf_counter()
-    tracks = ["recording"] if base == "recorded" else args.tracks.split(",")
+    recorded = base.startswith("recorded")  # recorded, recorded-imu: the recording only
+    tracks = ["recording"] if recorded else args.tracks.split(",")
     for track in tracks:
         maxima, left, yaw, speed, tq_rate = [], [], 0.0, 0.0, 0.0
         for seed in range(args.seeds):
