@@ -248,6 +248,9 @@ def test_from_vehicle_takes_the_preset_limits():
     assert dataclasses.replace(a, steer_delay=0.0, max_power=1000.0) == b
     with pytest.raises(ValueError, match=r"^torque_tau = -0\.1 s: must be >= 0$"):
         ActuatorParams.from_vehicle(v, torque_tau=-0.1)
+    # a road-wheel angle in radians: 40 (degrees given as radians) is refused by name
+    with pytest.raises(ValueError, match=r"^max_steer = 40\.0 rad: must lie in \[0\.0, 1\.57"):
+        ActuatorParams.from_vehicle(v, max_steer=40.0)
 
 
 def test_gauss_markov_drift_has_its_std_and_correlation_time():

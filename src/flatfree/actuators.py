@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from flatfree._validate import nonnegative, positive
+from flatfree._validate import in_range, nonnegative, positive
 from flatfree._vecmath import no_refcount
 from flatfree.vehicles.params import VehicleParams
 
@@ -54,6 +54,8 @@ class ActuatorParams:
 
     def __post_init__(self) -> None:
         positive("max_steer", self.max_steer, "rad")
+        # a road-wheel angle (as VehicleParams'): 40 would be degrees given as radians
+        in_range("max_steer", self.max_steer, 0.0, 0.5 * math.pi, "rad")
         positive("max_steer_rate", self.max_steer_rate, "rad/s")
         nonnegative("steer_tau", self.steer_tau, "s")
         nonnegative("steer_delay", self.steer_delay, "s")

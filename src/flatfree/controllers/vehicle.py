@@ -800,7 +800,8 @@ _IMU_ON, _IMU_PHI, _IMU_L1, _IMU_L2 = 18, 19, 20, 21
 _IMU_A, _IMU_U, _IMU_E, _IMU_ED, _IMU_STARTED = 22, 23, 24, 25, 26
 _IMU_L3, _IMU_B = 27, 28  # bias gain, bias estimate (kept across restarts: the bias persists)
 _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
-_K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
+_UMIN_I, _UMAX_I = int(IPAR.U_MIN), int(IPAR.U_MAX)
+_K_I, _U_I, _YD_I, _NF_I = int(IST.K), int(IST.U), int(IST.YDOT), int(IST.NONFINITE)
 
 
 @njit(cache=True)
@@ -925,7 +926,14 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         if math.isfinite(dr):
             if coef[6] != 0.0:
                 dr = fir_update(f_yaw, dr)  # NOTES.md denoiser (2T - 3d)
-            delta -= coef[4] * dr
+            # on the iPD's law only, when it is fed the applied steer: a step that holds
+            # (window not full, a non-finite input) then returns the steer applied last, the
+            # last damper term in it; adding the term again at every held step integrated it
+            # (a 0.1 s gap in the position left the track)
+            law = s_lat[_K_I] >= p_lat[_L_I] and s_lat[_NF_I] == 0.0
+            if law or coef[5] == 0.0:
+                # within the steer range (the iPD's limits, the actuators'), as the iPD's own
+                delta = min(max(delta - coef[4] * dr, p_lat[_UMIN_I]), p_lat[_UMAX_I])
     return tw, delta
 
 
@@ -976,7 +984,9 @@ class NaturalOutputController:
     def __init__(self, *, dt: float, actuators: ActuatorParams,
                  settings: MfcNaturalSettings | None = None) -> None:
         if not isinstance(actuators, ActuatorParams):
-            raise ValueError(f"actuators = {actuators!r}: expected flatfree.actuators."
+            got = repr(actuators)  # a VehicleParams' repr runs to hundreds of characters
+            got = got if len(got) <= 60 else got[:56] + " ..."
+            raise ValueError(f"actuators = {got}: expected flatfree.actuators."
                              "ActuatorParams (e.g. ActuatorParams.from_vehicle(vehicle))")
         if settings is None:
             settings = MfcNaturalSettings()
@@ -1017,19 +1027,30 @@ class NaturalOutputController:
 
         A bumpless start: until its estimator's window is full (the first ``window_lon - 1``
         and ``window_lat - 1`` steps, 0.1 s at the default settings) each loop gives its
-        start value, the :meth:`reset`'s ``torque0`` and ``steer0``; the yaw damper
-        (``yaw_damping``) adds to the steer from the first step.
+        start value, the :meth:`reset`'s ``torque0`` and ``steer0``. A step whose ``e_y`` (or
+        lateral reference) is not finite holds the steer applied last, the yaw damper's term
+        in it (the damper acts with the iPD's law only); the steer returned is within
+        ``actuators.max_steer``.
+
+        Conventions (ISO 8855, as the whole library): body axes at the CoG, x forward, y
+        left, z up; the yaw rate, the steer and the curvature are positive to the left
+        (counter-clockwise seen from above). The torque is the sum at the wheels, > 0
+        driving, < 0 braking. The lateral loop assumes a moving car: at a standstill the steer
+        does not move ``e_y`` and the iPD winds the steer up; :meth:`reset` at the actuators'
+        positions when the car pulls away (or do not call ``step`` while it stands).
 
         Parameters
         ----------
         vx : float
-            Measured longitudinal speed [m/s].
+            Measured longitudinal speed of the CoG in body axes [m/s].
         r : float
-            Measured yaw rate [rad/s] (the yaw damper).
+            Measured yaw rate [rad/s], left positive (the yaw damper).
         e_y : float
-            Measured lateral deviation of the CoG from the path [m], left positive.
+            Measured lateral deviation of the CoG from the path [m], left positive
+            (``Track.projector()`` of :mod:`flatfree.tracks` gives it from a pose).
         kappa : float
-            Path curvature at the car's position [1/m] (the yaw damper's r - vx kappa).
+            Path curvature at the car's position [1/m], > 0 in a left turn (the yaw damper's
+            r - vx kappa).
         vx_ref, ax_ref : float
             Speed reference [m/s] and its time derivative [m/s^2], read at the car's arc
             length. Give ``ax_ref``: it is the iP's feedforward; without it the speed lags the
