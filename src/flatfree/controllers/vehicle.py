@@ -933,7 +933,11 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
             law = s_lat[_K_I] >= p_lat[_L_I] and s_lat[_NF_I] == 0.0
             if law or coef[5] == 0.0:
                 # within the steer range (the iPD's limits, the actuators'), as the iPD's own
-                delta = min(max(delta - coef[4] * dr, p_lat[_UMIN_I]), p_lat[_UMAX_I])
+                delta -= coef[4] * dr
+                if delta < p_lat[_UMIN_I]:
+                    delta = p_lat[_UMIN_I]
+                elif delta > p_lat[_UMAX_I]:
+                    delta = p_lat[_UMAX_I]
     return tw, delta
 
 
