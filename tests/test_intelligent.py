@@ -28,6 +28,7 @@ from flatfree.controllers.intelligent import (
     IntelligentController,
     IntelligentParams,
     error_dynamics_gains,
+    intelligent_law_ran,
     intelligent_reset,
     intelligent_step,
     make_state,
@@ -1147,3 +1148,21 @@ def test_override_replaces_the_steps_output_against_the_previous_one():
     assert big[ub + head + 1] == u_prev and s[ub + head] == u
     changed = np.nonzero(big[hs:] != s[hs:])[0] + hs
     assert set(changed.tolist()) <= {ub + head, ub + head + L}
+
+
+def test_law_ran_tells_a_law_step_from_a_held_one():
+    """intelligent_law_ran: False while the window fills (the start value held, no law), True
+    once it is full, False at a held step (non-finite y or reference), True again after it;
+    vehicle_step adds the yaw damper on law steps only."""
+    p = IntelligentParams(nu=2, alpha=2.0, kp=4.0, kd=4.0, dt=0.01, window=10,
+                          u0=0.5).to_array()
+    s = make_state(p)
+    ran = []
+    out = [0.5]  # the start value, held first
+    for k, y in enumerate([0.1] * 12 + [math.nan, 0.1, 0.1]):
+        u = intelligent_step(p, s, y, 0.0, 0.0, 0.0 if k != 13 else math.nan)
+        ran.append(intelligent_law_ran(p, s))
+        if not ran[-1]:
+            assert u == out[-1]  # held
+        out.append(u)
+    assert ran == [False] * 9 + [True] * 3 + [False, False, True]

@@ -432,6 +432,7 @@ def test_layouts_and_params():
     vp = m.vehicle
     h_s = (vp.mass * vp.cog_height - (vp.mass - vp.sprung_mass) * vp.wheel_radius) / vp.sprung_mass
     assert m.params[MP.h_s] == pytest.approx(h_s, rel=1e-12)
+    assert h_s == pytest.approx(0.6054, abs=1e-3)  # the value the docstrings quote (0.605 m)
     assert abs(h_s - 0.61373) > 5e-3  # not CommonRoad's value: the relation is what is checked
 
 

@@ -115,6 +115,7 @@ from flatfree._validate import (
     whole,
 )
 from flatfree.sensors import SENSOR_CHANNELS, SensorChannel, SensorSuite
+from flatfree.vehicles.params import VehicleParams, load_vehicle
 from flatfree.vehicles.params import bundled_name as bundled_vehicle
 
 __all__ = [
@@ -444,6 +445,11 @@ class Scenario:
         :func:`scenario_with_settings`.
         """
         return scenario_with_settings(self, settings)
+
+    def load_vehicle(self) -> VehicleParams:
+        """The car the scenario runs: its preset or file with ``vehicle_overrides`` applied
+        (:func:`flatfree.vehicles.load_vehicle`; ``ValueError`` naming what is wrong)."""
+        return load_vehicle(self.vehicle, **dict(self.vehicle_overrides))
 
     @property
     def effective_sensors(self) -> SensorSuite:
@@ -964,9 +970,7 @@ def _check_parts(sc: Scenario, items: list[_Setting]) -> None:
                              ) from None
     veh = [s for s in items if s.path[0] in ("vehicle", "vehicle_overrides")]
     if veh:
-        from flatfree.vehicles import load_vehicle
-
         try:
-            load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides))
+            sc.load_vehicle()
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{_labels(veh)}: vehicle {sc.vehicle}: {exc}") from None

@@ -106,7 +106,7 @@ from flatfree.tracks import (
 )
 from flatfree.tracks.speed import _drive_acc, _drive_array
 from flatfree.trajectory import Status, Trajectory
-from flatfree.vehicles import VehicleParams, load_vehicle
+from flatfree.vehicles import VehicleParams
 
 __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "Prepared",
            "flying_lap_speed",
@@ -654,7 +654,7 @@ def reference_of(sc: Scenario | str) -> Reference:
     sc = _as_scenario(sc)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return _reference(sc, load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides)))
+        return _reference(sc, sc.load_vehicle())
 
 
 def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> Prepared:
@@ -665,7 +665,7 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     placeholder and the schedule is the object's ``schedule`` attribute (default ``"path"``).
     """
     sc = _as_scenario(sc)
-    vehicle = load_vehicle(sc.vehicle, **dict(sc.vehicle_overrides))
+    vehicle = sc.load_vehicle()
     ref = _reference(sc, vehicle)
     _warn_if_beyond_steer_lock(ref, vehicle)
     bic = Bicycle3DoFParams.from_vehicle(vehicle)
@@ -883,10 +883,11 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
         whose torque / steer command was not finite, and ``first_nonfinite_cmd_t_s`` is the
         time of the first such step (None: none). The actuators hold the previous command in
         place of a non-finite one (:func:`flatfree.actuators.actuate_step`), so such a run
-        can end "completed" with the car on stale commands: a built-in controller's NaN
-        during a measurement fault is within its documented policy (the counts say how long),
-        while for a Python controller ``simulate`` also warns once (``RuntimeWarning``: the
-        first step's time and the counts).
+        can end "completed" with the car on stale commands; ``simulate`` then also warns once
+        (``RuntimeWarning``: the first step's time and the counts). A built-in controller
+        holds its output through non-finite measurements (its documented policy), so its
+        command is not finite only when its law overflowed (e.g. finite measurements of the
+        order of 1e307).
 
     Raises
     ------
@@ -1040,12 +1041,18 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
         "first_nonfinite_cmd_t_s": (None if ls[_LS_NF_FIRST] < 0.0
                                     else float(ls[_LS_NF_FIRST]) * timing.plant_dt_s),
     }
-    if controller is not None and ls[_LS_NF_FIRST] >= 0.0:
+    if ls[_LS_NF_FIRST] >= 0.0:
+        # a built-in controller's command is not finite only when its law overflowed (a
+        # non-finite measurement is held, not passed on): said as a Python controller's is
+        counts = (f"{meta['n_nonfinite_torque_cmd']} (torque) and "
+                  f"{meta['n_nonfinite_steer_cmd']} (steer)")
+        if controller is not None:
+            head = (f"controller {type(controller).__name__}: step returned a non-finite "
+                    f"command at {counts} of its {n_calls} calls")
+        else:
+            head = f"controller {sc.controller}: a non-finite command at {counts} control steps"
         warnings.warn(
-            f"controller {type(controller).__name__}: step returned a non-finite command at "
-            f"{meta['n_nonfinite_torque_cmd']} (torque) and {meta['n_nonfinite_steer_cmd']} "
-            f"(steer) of its {n_calls} calls, the first at t = "
-            f"{meta['first_nonfinite_cmd_t_s']:.6g} s (control step "
+            f"{head}, the first at t = {meta['first_nonfinite_cmd_t_s']:.6g} s (control step "
             f"{int(ls[_LS_NF_FIRST]) // timing.control_every}); the actuators held the previous "
             "command there (flatfree.actuators.actuate_step). Counts in the trajectory's meta "
             "(n_nonfinite_torque_cmd, n_nonfinite_steer_cmd)", RuntimeWarning, stacklevel=3)

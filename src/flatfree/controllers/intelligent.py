@@ -155,6 +155,7 @@ __all__ = [
     "intelligent_override",
     "intelligent_reset",
     "intelligent_set_applied",
+    "intelligent_law_ran",
     "make_state",
     "model_derivative_weights",
     "ESTIMATOR_CODES",
@@ -205,7 +206,7 @@ class IST(enum.IntEnum):
     K = 0  # samples stored in the window so far
     HEAD = 1  # ring position of the newest sample
     N_NONFINITE = 2  # count of held steps (non-finite y or reference)
-    NONFINITE = 3  # 1 if the last step was held
+    NONFINITE = 3  # 1 if the last step held for a non-finite input (see intelligent_law_ran)
     U = 4  # last applied output, u-unit
     INTEGRAL = 5  # int e dt, y-unit s
     F_HAT = 6  # last F estimate, y-unit / s^nu
@@ -275,6 +276,13 @@ def _limit(p: np.ndarray, u_cmd: float, u_prev: float) -> tuple[float, float, fl
         u = p[_UMIN]
         sat = -1.0
     return u, sat, rl
+
+
+@numba.njit(**_JIT_STEP)
+def intelligent_law_ran(p: np.ndarray, s: np.ndarray) -> bool:
+    """Whether the last step applied the control law (else it held its previous output: the
+    window not full yet, ``K < L``, or a non-finite input, ``NONFINITE``)."""
+    return s[_K] >= p[_L] and s[_NF] == 0.0
 
 
 @numba.njit("void(float64[::1], float64[::1], float64)", cache=True)

@@ -98,6 +98,7 @@ from flatfree.controllers.intelligent import (
     IPAR,
     IST,
     IntelligentParams,
+    intelligent_law_ran,
     intelligent_override,
     intelligent_set_applied,
     intelligent_step,
@@ -801,7 +802,7 @@ _IMU_A, _IMU_U, _IMU_E, _IMU_ED, _IMU_STARTED = 22, 23, 24, 25, 26
 _IMU_L3, _IMU_B = 27, 28  # bias gain, bias estimate (kept across restarts: the bias persists)
 _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
 _UMIN_I, _UMAX_I = int(IPAR.U_MIN), int(IPAR.U_MAX)
-_K_I, _U_I, _YD_I, _NF_I = int(IST.K), int(IST.U), int(IST.YDOT), int(IST.NONFINITE)
+_K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
 
 
 @njit(cache=True)
@@ -930,8 +931,7 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
             # (window not full, a non-finite input) then returns the steer applied last, the
             # last damper term in it; adding the term again at every held step integrated it
             # (a 0.1 s gap in the position left the track)
-            law = s_lat[_K_I] >= p_lat[_L_I] and s_lat[_NF_I] == 0.0
-            if law or coef[5] == 0.0:
+            if coef[5] == 0.0 or intelligent_law_ran(p_lat, s_lat):
                 # within the steer range (the iPD's limits, the actuators'), as the iPD's own
                 delta -= coef[4] * dr
                 if delta < p_lat[_UMIN_I]:
@@ -988,9 +988,8 @@ class NaturalOutputController:
     def __init__(self, *, dt: float, actuators: ActuatorParams,
                  settings: MfcNaturalSettings | None = None) -> None:
         if not isinstance(actuators, ActuatorParams):
-            got = repr(actuators)  # a VehicleParams' repr runs to hundreds of characters
-            got = got if len(got) <= 60 else got[:56] + " ..."
-            raise ValueError(f"actuators = {got}: expected flatfree.actuators."
+            # {!r:.60}: a VehicleParams' repr runs to hundreds of characters
+            raise ValueError(f"actuators = {actuators!r:.60}: expected flatfree.actuators."
                              "ActuatorParams (e.g. ActuatorParams.from_vehicle(vehicle))")
         if settings is None:
             settings = MfcNaturalSettings()
@@ -1033,8 +1032,9 @@ class NaturalOutputController:
         and ``window_lat - 1`` steps, 0.1 s at the default settings) each loop gives its
         start value, the :meth:`reset`'s ``torque0`` and ``steer0``. A step whose ``e_y`` (or
         lateral reference) is not finite holds the steer applied last, the yaw damper's term
-        in it (the damper acts with the iPD's law only); the steer returned is within
-        ``actuators.max_steer``.
+        in it (the damper acts with the iPD's law only; with ``feed_applied = False`` the iPD
+        holds its own output and the damper is added at every step, the warm-up's included);
+        the steer returned is within ``actuators.max_steer``.
 
         Conventions (ISO 8855, as the whole library): body axes at the CoG, x forward, y
         left, z up; the yaw rate, the steer and the curvature are positive to the left
