@@ -519,6 +519,8 @@ def test_noise_flag_without_noisy_sensors_says_so(runner, tmp_path):
     assert "--seed has no effect" in res.stderr
     assert "noise on but no sensor has random noise" in res.stdout
     assert "seed" not in res.stdout.splitlines()[0]
+    res = _invoke(runner, ["run", str(f), "--noise", "--seed", "2", "--json"])
+    assert "--noise and --seed have no effect" in res.stderr
     # a drift alone is random noise: no note, and the header names the seed
     f.write_text(f.read_text() + "[sensors.y]\nmarkov_std = 0.01\nmarkov_tau_s = 60.0\n")
     res = _invoke(runner, ["run", str(f), "--noise", "--seed", "2"])

@@ -122,8 +122,8 @@ def test_rows_one_per_run_with_known_numbers_and_missing_runs():
     flat = RunResult(label="flatness", scenario=sc.with_(controller="flatness"), trajectory=tr,
                      metrics=_metrics(0.15, 2.4))
     late = RunResult(label="mfc-natural", scenario=sc, trajectory=tr, metrics=_metrics(0.03, 0.4))
-    assert [r["agrees"] for r in comparison_rows([flat, late])] == ["yes, no, smaller",
-                                                                     "no, larger, yes"]
+    assert [r["agrees"] for r in comparison_rows([flat, late])] == ["yes, no (smaller)",
+                                                                     "no (larger), yes"]
     text = format_table([ok, missing, bad])
     assert "flatness: not run: not wired yet" in text
     assert all(lbl in text for lbl in ("mfc-natural", "mfc-flat", "flatness"))

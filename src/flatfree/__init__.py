@@ -11,6 +11,7 @@ The names below are the curated public API. They are imported on first use (PEP 
 from __future__ import annotations
 
 import importlib
+from types import ModuleType
 from typing import Any
 
 __version__ = "0.1.0.dev0"
@@ -71,6 +72,5 @@ def __dir__() -> list[str]:
     """The public names and the subpackages imported so far (not this module's own imports:
     ``importlib``, ``Any``, ``annotations``)."""
     subpackages = {n for n, v in globals().items()
-                   if getattr(v, "__name__", "").startswith("flatfree.")
-                   and type(v).__name__ == "module"}
+                   if isinstance(v, ModuleType) and v.__name__.startswith("flatfree.")}
     return sorted(set(__all__) | subpackages)

@@ -47,4 +47,4 @@ def looks_like_path(text: str) -> bool:
     """True for a value the loaders read as a file path even where no such file exists (their
     error is then "file not found", not "unknown name"): one with a folder separator or a file
     suffix. No bundled name has either."""
-    return "/" in text or "\\" in text or os.sep in text or bool(PurePath(text).suffix)
+    return "/" in text or "\\" in text or bool(PurePath(text).suffix)

@@ -47,8 +47,6 @@ def real_array(name: str, value, unit: str = "") -> np.ndarray:
         u = f" [{unit}]" if unit and unit != "-" else ""
         raise ValueError(f"{name}{u}: expected an array of real numbers of one shape, got "
                          f"{value!r:.80}") from None
-    if a.dtype is _F64:
-        return a  # a list of floats: converted once
     if a.dtype.kind not in "iuf":
         shown = _fmt(name, value, unit) if a.size <= 4 else f"{name} (shape {a.shape})"
         raise ValueError(f"{shown}: expected real numbers, got dtype {a.dtype}")

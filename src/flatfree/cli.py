@@ -458,17 +458,14 @@ def scenario_list(as_json: bool) -> None:
 def _vehicle_option(ctx, param, value: str | None) -> str | None:
     if value is None:
         return None
-    from flatfree.vehicles import vehicle_names
-    from flatfree.vehicles.params import bundled_name
+    from flatfree.vehicles.params import bundled_name, vehicle_file
 
-    if Path(value).is_file():
-        return value
+    try:  # the loader's lookup and message; a path is read at the run
+        vehicle_file(value)
+    except ValueError as exc:
+        raise click.BadParameter(f"{exc}; or the path of a vehicle TOML file") from None
     name = bundled_name(value)
-    if name is None:
-        raise click.BadParameter(f"unknown vehicle {value!r}; presets: "
-                                 f"{', '.join(vehicle_names())}; or the path of a vehicle TOML "
-                                 "file")
-    return name
+    return value if name is None or Path(value).is_file() else name
 
 
 def _controller_choices() -> list[str]:
@@ -571,43 +568,35 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     return sc
 
 
-def _simulate_collecting(sc, warned: list[str]):
-    """simulate(sc) and the reference it ran on, ``(trajectory, reference)`` (built once:
-    prepare, then the run), the library's warnings (e.g. a curve beyond the car's steer lock)
-    appended to ``warned`` as text instead of shown; a ValueError passes through, the one of a
-    run too long for the memory (simulate's RunTooLongError, naming timing.duration_s) saying
-    where the run ends at the latest and how to make it longer (:func:`_reference_end`)."""
+@contextlib.contextmanager
+def _collecting(warned: list[str]):
+    """The library's warnings of the block appended to ``warned`` as text instead of shown
+    (those before an exception too)."""
     import warnings
-
-    from flatfree.simulation import RunTooLongError, prepare, simulate_prepared
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        try:
+            yield
+        finally:
+            warned.extend(str(w.message) for w in caught)
+
+
+def _simulate_collecting(sc, warned: list[str]):
+    """simulate(sc) and the reference it ran on, ``(trajectory, reference)`` (built once:
+    prepare, then the run), the library's warnings (e.g. a curve beyond the car's steer lock)
+    appended to ``warned`` (:func:`_collecting`); a ValueError passes through, the one of a
+    run too long for the memory (simulate's RunTooLongError, naming timing.duration_s) saying
+    where the run ends at the latest and how to make it longer (:func:`_reference_end`)."""
+    from flatfree.simulation import RunTooLongError, prepare, simulate_prepared
+
+    with _collecting(warned):
         prep = None
         try:
             prep = prepare(sc)
             return simulate_prepared(prep), prep.reference
         except RunTooLongError as exc:
             raise ValueError(f"{exc}; {_reference_end(sc, prep.reference)}") from None
-        finally:
-            warned.extend(str(w.message) for w in caught)
-
-
-def _metrics_collecting(tr, sc, warned: list[str] | None):
-    """compute_metrics(tr) at the scenario's start-up interval, its warning (every metric NaN:
-    the log ends within that interval) appended to ``warned`` as text instead of shown, or
-    dropped with ``warned=None`` (``flatfree run`` says it in its own note,
-    :func:`_note_short_or_capped`)."""
-    import warnings
-
-    from flatfree.metrics import compute_metrics
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        m = compute_metrics(tr, startup_s=sc.timing.startup_s)
-    if warned is not None:
-        warned.extend(str(w.message) for w in caught)
-    return m
 
 
 def _reference_end(sc, ref) -> str:
@@ -760,6 +749,7 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
     without it the paper's scenario (or, with --recording, the recorded one) is the base, and
     the options change it; --set changes any field, last.
     """
+    from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult, format_table
 
     if with_csv and out_dir is None:
@@ -771,14 +761,16 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
                         cr_scale=cr_scale, noise=noise, seed=seed, duration_s=duration_s,
                         settings=settings)
     if sc.noise and not sc.sensors.random and (noise or seed is not None):
-        given = " and ".join(o for o, v in (("--noise", noise), ("--seed", seed is not None)) if v)
-        _err(f"note: {given} has no effect: scenario {sc.name!r} gives no sensor random noise "
-             "(a noise_std or a markov_std)")
+        given = [o for o, v in (("--noise", noise), ("--seed", seed is not None)) if v]
+        verb = "has" if len(given) == 1 else "have"
+        _err(f"note: {' and '.join(given)} {verb} no effect: scenario {sc.name!r} gives no "
+             "sensor random noise (a noise_std or a markov_std)")
     with _out_dir(out_dir):
         # the reference the run was built on, for the notes, the recorded steer and the figures
         tr, reference = _simulate(sc)
         _note_short_or_capped(sc, tr, reference)
-        m = _metrics_collecting(tr, sc, None)
+        with _collecting([]):  # its one warning (every metric NaN) is this command's own note
+            m = compute_metrics(tr, startup_s=sc.timing.startup_s)
         extra: dict[str, float] = {}
         rec = None
         if sc.reference.recording is not None:
@@ -925,13 +917,15 @@ def _try_run(label: str, sc, warned: list[str]):
     """``(RunResult, reference)``: the run and the reference it ran on, or why it could not be
     made (a ValueError of the engine) and None; the library's warnings of the run are appended
     to ``warned``."""
+    from flatfree.metrics import compute_metrics
     from flatfree.report import RunResult
 
     try:
         tr, ref = _simulate_collecting(sc, warned)
     except ValueError as exc:
         return RunResult(label=label, scenario=sc, error=str(exc)), None
-    m = _metrics_collecting(tr, sc, warned)
+    with _collecting(warned):
+        m = compute_metrics(tr, startup_s=sc.timing.startup_s)
     return RunResult(label=label, scenario=sc, trajectory=tr, metrics=m), ref
 
 

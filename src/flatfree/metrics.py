@@ -147,9 +147,8 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
     ey = part["lateral_error"]
     epsi = np.degrees(wrap_angle(part["yaw_error"]))
     ev = part["vx"] - part["vx_ref"]
-    steer = traj["steer"][traj.time >= t0 + startup_s]
     t = part.time
-    steer_rate = np.diff(steer) / np.diff(t) if t.size > 1 else np.empty(0)
+    steer_rate = np.diff(part["steer"]) / np.diff(t) if t.size > 1 else np.empty(0)
     torque_rate = np.diff(part["torque"]) / np.diff(t) if t.size > 1 else np.empty(0)
     course = (np.degrees(wrap_angle(part["course_error"])) if "course_error" in traj
               else np.empty(0))

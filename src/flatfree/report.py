@@ -133,7 +133,7 @@ def _verdict(a: bool | None, rel: str) -> str:
         return "-"
     if a:
         return "yes"
-    return "no, smaller" if rel == ">" else "no, larger"
+    return "no (smaller)" if rel == ">" else "no (larger)"
 
 
 #: Columns of the comparison table: (key, header).

@@ -88,7 +88,7 @@ from flatfree._names import looks_like_path
 from flatfree.scenario import NOISE_FREE_SUFFIX, ReferenceSpec, Scenario, Timing, _canonical
 from flatfree.sensors import SensorChannel, SensorSuite
 from flatfree.tracks._io import resolve as resolve_track
-from flatfree.vehicles.params import bundled_name, load_vehicle
+from flatfree.vehicles.params import bundled_name, vehicle_file
 
 __all__ = [
     "DEFAULT_TRACK",
@@ -254,7 +254,7 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
     if isinstance(track, str) and not looks_like_path(track):
         resolve_track(track, "track")
     if isinstance(vehicle, str) and not looks_like_path(vehicle):
-        load_vehicle(vehicle)  # a bundled preset's (or a suffix-less file's) small TOML
+        vehicle_file(vehicle)
     controller, settings = _BASE[base]
     car = "peugeot406" if vehicle is None else vehicle
     if controller == "mfc-natural":

@@ -101,9 +101,9 @@ proof). The steer-rate limit, 0.4 rad/s, allows j = 0.4 / (L/v^2 + K_us) ~ 50-10
 smoothed at 20 m, 2026-11-22, limits from 8 to 30 m/s^3 tried): ``paper`` completes with
 j_lat_max from 8 to 18 m/s^3 and leaves the track with 19 to 30 or none; ``paper-imu``
 completes with 8 to 20 and leaves with 21 to 30 or none. No bundled track's default profile
-exceeds 21 m/s^3, and 15 m/s^3 costs at most 0.31 s a lap (Spa, 0.13 %). For comparison,
-the limit of UN R79 for automatically commanded steering [R79] (a comfort and automation rule,
-not a handling limit) is 5 m/s^3, which costs 0.5-14 s a lap here (IMS to Spa).
+exceeds 21 m/s^3, and 15 m/s^3 costs at most 0.31 s a lap (Spa, 0.12 % of its 247.4 s). For
+comparison, the limit of UN R79 for automatically commanded steering [R79] (a comfort and
+automation rule, not a handling limit) is 5 m/s^3, which costs 0.5-14 s a lap here (IMS to Spa).
 
 References
 ----------
@@ -184,7 +184,7 @@ class SpeedLimits:
         Largest lateral jerk of steady travel along the path, v^3 |d kappa/ds| at the nodes
         [m/s^3] (module docstring, "Lateral-jerk limit"). Default ``inf``: off, the
         friction-ellipse profile bit for bit. :data:`J_LAT_HANDLING` (15 m/s^3) keeps a rough
-        path drivable and costs a bundled track's lap 0.31 s at most (Spa, 0.13 %).
+        path drivable and costs a bundled track's lap 0.31 s at most (Spa, 0.12 %).
     """
 
     a_lat_max: float = field(default=6.0, metadata={"unit": "m/s^2"})

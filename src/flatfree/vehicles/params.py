@@ -36,6 +36,7 @@ __all__ = [
     "CORNERING_LAW_CODES",
     "load_tire",
     "load_vehicle",
+    "vehicle_file",
     "vehicle_names",
     "tire_names",
 ]
@@ -388,6 +389,14 @@ def _resolve(name_or_path: str | Path, folder, kind: str):
     return folder / f"{name}.toml"
 
 
+def vehicle_file(name_or_path: str | Path) -> Path:
+    """The TOML file :func:`load_vehicle` reads for ``name_or_path``, found without reading it:
+    a bundled preset's, or the path as given (an existing file, or a value that looks like a
+    path: a missing one is the reader's "file not found"). ``ValueError`` for an unknown name,
+    with the loader's message (a name checked where it is written, read later)."""
+    return _resolve(name_or_path, _DATA, "vehicle")
+
+
 def _values(table: dict, cls, where: str) -> dict[str, Any]:
     """Read ``name = {value, unit, source}`` entries, checking names and units against ``cls``."""
     known = {f.name: f.metadata.get("unit", "") for f in dataclasses.fields(cls)}
@@ -445,7 +454,7 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
     ``overrides`` replace parameters after loading (validated like the rest), e.g.
     ``load_vehicle("peugeot406", mass=1360.0)``.
     """
-    path = _resolve(name_or_path, _DATA, "vehicle")
+    path = vehicle_file(name_or_path)
     doc = _read_toml(path, f"vehicle {name_or_path}")
     where = f"vehicle file {path}"
     for key in ("name", "drive", "tire_front", "tire_rear", "params"):
