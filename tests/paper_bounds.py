@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import time
 from pathlib import Path
@@ -63,10 +64,21 @@ def seed_band(case: dict, n_seeds: int = N_SEEDS) -> dict:
             times.append(float(tr.status_time))
     band: dict = {"seeds": [0, n_seeds - 1], "same_status": same}
     for k, v in values.items():
-        band[k] = [float(np.min(v)), float(np.max(v))]
+        band[k] = _outward(float(np.min(v)), float(np.max(v)))
     if times:
-        band["status_time_s"] = [min(times), max(times)]
+        band["status_time_s"] = _outward(min(times), max(times))
     return band
+
+
+def _outward(lo: float, hi: float, digits: int = 4) -> list[float]:
+    """``[lo, hi]`` to ``digits`` significant digits, rounded outward (the stored band holds
+    every measured value; rounded to nearest, an end could fall inside it)."""
+    def step(v: float) -> float:
+        return 10.0 ** (math.floor(math.log10(abs(v))) - digits + 1) if v else 1.0
+
+    # round(..., 6): a value already on the grid (0.01441 / 1e-5 = 1440.9999999999998) stays
+    return [float(f"{math.floor(round(lo / step(lo), 6)) * step(lo):.{digits}g}"),
+            float(f"{math.ceil(round(hi / step(hi), 6)) * step(hi):.{digits}g}")]
 
 
 def _label(case: dict) -> str:

@@ -1,0 +1,76 @@
+"""A gap in the position measurement: how the natural-output designs ride it out (issue 7).
+
+Run as a script (``python benchmarks/position_gap.py [--trace] [--seeds N]``); it prints the
+figures of benchmarks/README.md "A held steer held the yaw damper's term twice":
+
+1. the table: Norisring, seed 0, ``paper`` and ``paper-imu``, the position channel ``y`` NaN
+   (a ``nan_measurement`` fault) for 0.05 / 0.1 / 0.2 s from 11, 12 and 13 s; max lateral error
+   after the 1 s start-up of a 25 s run, or when the car left the track;
+2. ``--seeds N``: the 0.1 s gap at 12 s over seeds 0..N-1 (16 s runs);
+3. ``--trace``: ``paper`` with the 0.1 s gap at 11 s (16 s run), per interval the max |e_y|,
+   the range of the steer command and of the applied steer.
+
+Nothing here is a test (tests/test_simulation.py holds the 0.1 s gap at 12 s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import warnings
+
+import numpy as np
+
+from flatfree.metrics import compute_metrics
+from flatfree.scenario import Fault
+from flatfree.scenarios import named_scenario
+from flatfree.simulation import simulate
+
+
+def run(name: str, t0: float, dur: float, *, seed: int = 0, duration_s: float = 25.0):
+    gap = Fault(kind="nan_measurement", channel="y", t_start_s=t0, duration_s=dur)
+    tr = simulate(named_scenario(name, duration_s=duration_s, seed=seed).with_(faults=(gap,)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the start-up warning cannot arise: runs of >= 16 s
+        m = compute_metrics(tr)
+    return tr, m
+
+
+def _result(tr, m) -> str:
+    if m.status == "completed":
+        return f"{100 * m.lateral_error_max_m:.2f} cm"
+    return f"left at {tr.status_time:.1f} s"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--trace", action="store_true", help="the 11 s gap's trace (paper)")
+    ap.add_argument("--seeds", type=int, default=0, help="the 12 s gap over seeds 0..N-1")
+    args = ap.parse_args()
+    print("gap [s] at [s]   paper            paper-imu")
+    for t0 in (11.0, 12.0, 13.0):
+        for dur in (0.05, 0.1, 0.2):
+            cells = [_result(*run(name, t0, dur)) for name in ("paper", "paper-imu")]
+            print(f"{dur:4.2f}    {t0:4.1f}    {cells[0]:16s} {cells[1]}")
+    if args.seeds:
+        for name in ("paper", "paper-imu"):
+            cells = [_result(*run(name, 12.0, 0.1, seed=s, duration_s=16.0))
+                     for s in range(args.seeds)]
+            print(f"{name}, 0.1 s at 12 s, seeds 0-{args.seeds - 1}: {', '.join(cells)}")
+    if args.trace:
+        tr, _ = run("paper", 11.0, 0.1, duration_s=16.0)
+        t = tr.time
+        print("paper, 0.1 s gap at 11 s: interval, max |e_y|, steer command, applied steer")
+        edges = (10.9, 11.0, 11.1, 11.2, 11.5, 12.0, 13.0, 14.0, 15.0)
+        for a, b in itertools.pairwise(edges):
+            w = (t >= a) & (t < b)
+            if not w.any():
+                break
+            print(f"  {a:5.1f}-{b:4.1f} s  {100 * np.abs(tr['e_y'][w]).max():7.2f} cm  "
+                  f"{tr['steer_cmd'][w].min():+.4f}..{tr['steer_cmd'][w].max():+.4f} rad  "
+                  f"{tr['steer'][w].min():+.4f}..{tr['steer'][w].max():+.4f} rad")
+        print(f"  status {tr.status.value} at {tr.status_time} s")
+
+
+if __name__ == "__main__":
+    main()
