@@ -3,7 +3,7 @@
 Run as a script::
 
     python benchmarks/imu_sensitivity.py                     # every section, ~3 minutes
-    python benchmarks/imu_sensitivity.py --only rate,recorded
+    python benchmarks/imu_sensitivity.py --only bias,recorded
     python benchmarks/imu_sensitivity.py --set yaw_damping=0 --only sensitivity
 
 Sections (the tables of benchmarks/README.md "Closed loop", "Acceleration-aided F"):
@@ -16,9 +16,6 @@ Sections (the tables of benchmarks/README.md "Closed loop", "Acceleration-aided 
     The optional bias state of the observer (``observer_bias_wn`` 0 / 0.5 / 1 / 2 / 5 rad/s)
     against a 0.5 m/s^2 accelerometer bias, 1 cm of position noise and every channel at 100 Hz
     (seeds 0-2).
-``rate``
-    The control rate (1000 / 500 / 200 / 100 Hz, windows scaled to 0.1 s / 0.05 s), both
-    estimators, seed 0.
 ``recorded``
     The steer against the recorded driver's on the recording, both estimators, with and without
     noise: correlation and mean |steer| (read on the reference clock, as ``flatfree run
@@ -68,12 +65,10 @@ def _suite(names=(), **change) -> SensorSuite:
     return SensorSuite(out)
 
 
-def _run(name, track, seed, settings, sensors=None, timing=None):
+def _run(name, track, seed, settings, sensors=None):
     sc = named_scenario(name, track=track, seed=seed)
     if sensors is not None:
         sc = sc.with_(sensors=sensors)
-    if timing is not None:
-        sc = sc.with_(timing=dataclasses.replace(sc.timing, **timing))
     if settings:
         sc = sc.with_(controller_settings={**sc.controller_settings, **settings})
     tr = simulate(sc)
@@ -131,19 +126,6 @@ def bias(settings):
                                 sensors)[1]) for tr in ("Norisring", "Spa") for seed in range(3)]
             print(f"  observer_bias_wn {wb:3.1f}  {label:24s} {' '.join(cells[:3])} | "
                   f"{' '.join(cells[3:])}", flush=True)
-
-
-def rate(settings):
-    print("control rate: max lateral error [cm] / steer-rate RMS [rad/s], seed 0")
-    for hz in (1000, 500, 200, 100):
-        windows = {"window_lat": round(0.1 * hz), "window_lon": round(0.05 * hz)}
-        for name in ("paper-imu", "paper"):
-            extra = {**(settings if name == "paper-imu" else {}), **windows}
-            cells = []
-            for tr in ("Norisring", "Spa"):
-                _, m = _run(name, tr, 0, extra, timing={"control_dt_s": 1.0 / hz})
-                cells.append(f"{tr} {_cell(m)} / {m.steer_rate_rms_radps:.2f}")
-            print(f"  {hz:4d} Hz {name:10s} {'   '.join(cells)}", flush=True)
 
 
 def recorded(settings):
@@ -217,7 +199,7 @@ def understeer(_settings):
             print(f"  {tr:10s} preset {cells[0]:14s} rear x1.3 {cells[1]}", flush=True)
 
 
-_SECTIONS = {"sensitivity": sensitivity, "bias": bias, "rate": rate, "recorded": recorded,
+_SECTIONS = {"sensitivity": sensitivity, "bias": bias, "recorded": recorded,
              "yaw": yaw, "understeer": understeer}
 
 

@@ -7,8 +7,9 @@ figures of benchmarks/README.md "A held steer held the yaw damper's term twice":
    (a ``nan_measurement`` fault) for 0.05 / 0.1 / 0.2 s from 11, 12 and 13 s; max lateral error
    after the 1 s start-up of a 25 s run, or when the car left the track;
 2. ``--seeds N``: the 0.1 s gap at 12 s over seeds 0..N-1 (16 s runs);
-3. ``--trace``: ``paper`` with the 0.1 s gap at 11 s (16 s run), per interval the max |e_y|,
-   the range of the steer command and of the applied steer.
+3. ``--trace``: ``paper`` with the 0.1 s gap at 11 s and without it (16 s runs), per interval
+   the max |e_y|, the range of the steer command, of the applied steer and of the lateral
+   loop's F_hat, and the share of the logged samples at the steer-rate limit.
 
 Nothing here is a test (tests/test_simulation.py holds the 0.1 s gap at 12 s).
 """
@@ -21,10 +22,12 @@ import warnings
 
 import numpy as np
 
+from flatfree.actuators import ActuatorParams
 from flatfree.metrics import compute_metrics
 from flatfree.scenario import Fault
 from flatfree.scenarios import named_scenario
 from flatfree.simulation import simulate
+from flatfree.vehicles import load_vehicle
 
 
 def run(name: str, t0: float, dur: float, *, seed: int = 0, duration_s: float = 25.0):
@@ -58,18 +61,27 @@ def main() -> None:
                      for s in range(args.seeds)]
             print(f"{name}, 0.1 s at 12 s, seeds 0-{args.seeds - 1}: {', '.join(cells)}")
     if args.trace:
-        tr, _ = run("paper", 11.0, 0.1, duration_s=16.0)
-        t = tr.time
-        print("paper, 0.1 s gap at 11 s: interval, max |e_y|, steer command, applied steer")
-        edges = (10.9, 11.0, 11.1, 11.2, 11.5, 12.0, 13.0, 14.0, 15.0)
-        for a, b in itertools.pairwise(edges):
-            w = (t >= a) & (t < b)
-            if not w.any():
-                break
-            print(f"  {a:5.1f}-{b:4.1f} s  {100 * np.abs(tr['e_y'][w]).max():7.2f} cm  "
-                  f"{tr['steer_cmd'][w].min():+.4f}..{tr['steer_cmd'][w].max():+.4f} rad  "
-                  f"{tr['steer'][w].min():+.4f}..{tr['steer'][w].max():+.4f} rad")
-        print(f"  status {tr.status.value} at {tr.status_time} s")
+        rate_max = ActuatorParams.from_vehicle(load_vehicle("peugeot406")).max_steer_rate
+        for label, dur in (("0.1 s gap at 11 s", 0.1), ("no gap (the same run)", 0.0)):
+            tr = run("paper", 11.0, dur, duration_s=16.0)[0] if dur else simulate(
+                named_scenario("paper", duration_s=16.0))
+            t = tr.time
+            # the applied steer's rate between logged samples, as a share of the actuator's
+            at_limit = np.abs(np.diff(tr["steer"], prepend=tr["steer"][0])) / np.diff(
+                t, prepend=t[0] - (t[1] - t[0])) >= 0.99 * rate_max
+            print(f"paper, {label}: interval, max |e_y|, steer command, applied steer, F_hat "
+                  "of the lateral loop, share of the interval at the steer-rate limit")
+            edges = (10.9, 11.0, 11.1, 11.2, 11.5, 12.0, 13.0, 14.0, 15.0)
+            for a, b in itertools.pairwise(edges):
+                w = (t >= a) & (t < b)
+                if not w.any():
+                    break
+                print(f"  {a:5.1f}-{b:4.1f} s  {100 * np.abs(tr['e_y'][w]).max():7.2f} cm  "
+                      f"{tr['steer_cmd'][w].min():+.4f}..{tr['steer_cmd'][w].max():+.4f} rad  "
+                      f"{tr['steer'][w].min():+.4f}..{tr['steer'][w].max():+.4f} rad  "
+                      f"{tr['f_lat'][w].min():+6.2f}..{tr['f_lat'][w].max():+6.2f} m/s^2  "
+                      f"{100 * at_limit[w].mean():3.0f} %")
+            print(f"  status {tr.status.value} at {tr.status_time} s")
 
 
 if __name__ == "__main__":

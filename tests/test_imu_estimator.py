@@ -280,17 +280,12 @@ def test_accelerometer_bias_offset_and_its_observer_state(bias_wn):
 
 
 def test_imu_holds_a_lap_at_a_100_hz_control_rate():
-    """A typical ROS 2 loop rate: the controller at 100 Hz (sensors sampled there, windows
-    scaled to 0.1 s / 0.05 s), plant at 1 kHz: a whole noisy Norisring lap within the issue's
-    2 cm (measured 0.73 cm, benchmarks/imu_sensitivity.py --only rate; the algebraic
-    estimator leaves the track at this rate)."""
-    import dataclasses
-
-    sc = named_scenario("paper-imu")
-    sc = sc.with_(timing=dataclasses.replace(sc.timing, control_dt_s=0.01),
-                  controller_settings={**sc.controller_settings, "window_lat": 10,
-                                       "window_lon": 5})
-    m = compute_metrics(simulate(sc))
+    """A typical ROS 2 loop rate: the controller at 100 Hz (sensors sampled there, windows and
+    denoisers rescaled to their 1 kHz durations: Scenario.with_control_period), plant at
+    1 kHz: a whole noisy Norisring lap within the issue's 2 cm (measured 0.68-0.73 cm over
+    seeds 0-2, benchmarks/control_period.py; the algebraic estimator leaves the track at this
+    rate)."""
+    m = compute_metrics(simulate(named_scenario("paper-imu").with_control_period(0.01)))
     assert m.status == "completed"
     assert m.lateral_error_max_m < 0.02
 

@@ -364,6 +364,8 @@ class _Replay:
         return tw, de
 
 
+# short windows on purpose (they fill within the 0.6 s run), hence the control-period warning
+@pytest.mark.filterwarnings("ignore:mfc-natural at a control period:RuntimeWarning")
 def test_slow_control_clock_and_odd_log_clock_through_both_doors():
     """Control every 3 plant steps, log every 7: a Python controller replaying the built-in
     run's commands gives its logged trajectory bit for bit (the clock counters keep their

@@ -331,7 +331,9 @@ drive_limit = false         # true: also within the car's drive limit (power, to
 
 [timing]
 plant_dt_s = 0.001          # plant RK4 step
-control_dt_s = 0.001        # controller period (a whole multiple of plant_dt_s)
+control_dt_s = 0.001        # controller period (a whole multiple of plant_dt_s); the
+                            # controller's windows count samples tuned at 0.001 s: change
+                            # it with `flatfree run --control-period S`, which rescales them
 log_dt_s = 0.01             # logging period (a whole multiple of plant_dt_s)
 startup_s = 1.0
 # duration_s = 60.0         # default: the reference's duration
@@ -480,6 +482,14 @@ def _positive_float(ctx, param, value):
     return value
 
 
+#: --control-period of `run` and `demo` (Scenario.with_control_period)
+_CONTROL_PERIOD = click.option(
+    "--control-period", "control_period_s", type=float, callback=_positive_float, metavar="S",
+    help="Run the controller every S seconds, its estimator windows and denoisers rescaled "
+         "to keep their durations (tuned at 0.001 s; setting timing.control_dt_s alone keeps "
+         "their sample counts).")
+
+
 def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
     """The scenario a run starts from: a TOML file, a named scenario, or the default. A named
     track scenario takes ``vehicle`` from ``named_scenario(vehicle=...)`` (the car in its
@@ -509,7 +519,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
                    vehicle: str | None = None, cf_scale: float | None = None,
                    cr_scale: float | None = None, noise: bool | None = None,
                    seed: int | None = None, duration_s: float | None = None,
-                   settings: Sequence[str] = ()):
+                   control_period_s: float | None = None, settings: Sequence[str] = ()):
     """The scenario of ``flatfree run``: the base (file, name or default) with the options.
 
     ``--controller`` different from the scenario's drops the scenario's controller settings
@@ -517,7 +527,10 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     controller settings (only the flatness controller takes them: another one refuses them
     when the run starts). ``settings`` (``--set FIELD=VALUE``, repeatable) are applied last,
     in order, by :func:`flatfree.scenario.scenario_with_settings`: a ``--set`` wins over the
-    options (``--seed 1 --set seed=2`` runs seed 2). ``noise`` is applied as the setting
+    options (``--seed 1 --set seed=2`` runs seed 2). ``control_period_s``
+    (``--control-period``) runs the controller at that period with its windows and denoisers
+    rescaled to keep their durations (:meth:`~flatfree.scenario.Scenario.with_control_period`),
+    before the ``--set`` options. ``noise`` is applied as the setting
     ``noise=true`` / ``noise=false`` before them, so that a scenario named ``...-noise-free``
     (which the scenario refuses with the noise on) can take ``--noise --set name=NAME``. A
     bundled car, track or recording comes out in its own spelling (``--track monza``:
@@ -562,7 +575,10 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if duration_s is not None:
             changes["timing"] = dataclasses.replace(sc.timing, duration_s=duration_s)
         noise_setting = [] if noise is None else [f"noise={'true' if noise else 'false'}"]
-        sc = scenario_with_settings(sc.with_(**changes), [*noise_setting, *settings])
+        sc = sc.with_(**changes)
+        if control_period_s is not None:
+            sc = sc.with_control_period(control_period_s)
+        sc = scenario_with_settings(sc, [*noise_setting, *settings])
     except ValueError as exc:
         raise _fail(str(exc)) from None
     return sc
@@ -694,7 +710,8 @@ Examples:
   flatfree run --recording LVMS_23_01_04_B --json     adds steer_rms_vs_recorded_deg
   flatfree run --track my_track.csv --duration 30
   flatfree run paper-imu --set reference.j_lat_max=15 --set sensors.y.markov_order=2
-  flatfree run --set controller_settings.alpha_lat=40 --set timing.control_dt_s=0.002
+  flatfree run paper-imu --control-period 0.01      the controller at 100 Hz
+  flatfree run --set controller_settings.alpha_lat=40 --set reference.j_lat_max=15
 
 \b
 --set FIELD=VALUE reaches any field of a scenario by its dotted path in the TOML layout of
@@ -735,6 +752,7 @@ usage or input.""")
 @click.option("--csv", "with_csv", is_flag=True,
               help="With --out: also write trajectory.csv (one header line, 'name [unit]') "
                    "and trajectory.csv.json (status, units, meta).")
+@_CONTROL_PERIOD
 @click.option("--set", "settings", multiple=True, metavar="FIELD=VALUE",
               help="Set a scenario field by its dotted path, e.g. reference.j_lat_max=15, "
                    "sensors.y.markov_order=2, controller_settings.alpha_lat=40 (repeatable; "
@@ -742,7 +760,7 @@ usage or input.""")
 @click.option("--json", "as_json", is_flag=True,
               help="Print exactly one JSON object (metrics and settings) on stdout.")
 def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale, noise, seed,
-        duration_s, settings, out_dir, with_csv, as_json) -> None:
+        duration_s, control_period_s, settings, out_dir, with_csv, as_json) -> None:
     """Run one closed-loop scenario and print its metrics.
 
     SCENARIO is a TOML file (see `flatfree scenario new`) or a named scenario (listed below);
@@ -759,7 +777,7 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
     sc = build_scenario(scenario_file, controller=controller, track=track,
                         recording=recording, vehicle=vehicle, cf_scale=cf_scale,
                         cr_scale=cr_scale, noise=noise, seed=seed, duration_s=duration_s,
-                        settings=settings)
+                        control_period_s=control_period_s, settings=settings)
     if sc.noise and not sc.sensors.random and (noise or seed is not None):
         given = [o for o, v in (("--noise", noise), ("--seed", seed is not None)) if v]
         verb = "has" if len(given) == 1 else "have"
@@ -938,8 +956,11 @@ DEMO_FIXED_FIELDS = ("name", "description", "controller", "controller_settings",
 
 def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
                 rec_duration_s: float | None, no_recorded: bool, noise: bool,
+                control_period_s: float | None = None,
                 settings: Sequence[str] = ()) -> list[tuple[str, str, Any]]:
-    """The demo's runs as (group, label, scenario), each changed by ``settings`` (``--set``).
+    """The demo's runs as (group, label, scenario), each changed by ``control_period_s``
+    (``--control-period``: :meth:`~flatfree.scenario.Scenario.with_control_period`) and then
+    by ``settings`` (``--set``).
 
     Raises :class:`InputError` (exit 2) on a bad setting or one of
     :data:`DEMO_FIXED_FIELDS`.
@@ -974,11 +995,12 @@ def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
                           if ctrl != rec.controller else rec))
         tasks.append(("recorded", IMU_LABEL,
                       _named("recorded-imu" + sfx, seed=seed, duration_s=rec_duration_s)))
-    if not settings:
+    if not settings and control_period_s is None:
         return tasks
     out = []
-    for group, label, sc in tasks:
+    for group, label, base in tasks:
         try:
+            sc = base if control_period_s is None else base.with_control_period(control_period_s)
             out.append((group, label, scenario_with_settings(sc, list(settings))))
         except ValueError as exc:
             raise _fail(f"{group}, {label}: {exc}") from None
@@ -991,7 +1013,7 @@ Examples:
   flatfree demo --out /tmp/paper --no-noise
   flatfree demo --track Monza
   flatfree demo --track Norisring --duration 20 --recording-duration 20   a quick look
-  flatfree demo --set timing.control_dt_s=0.002 --set actuators.steer_tau_s=0.05
+  flatfree demo --control-period 0.002 --set actuators.steer_tau_s=0.05
 
 \b
 --set FIELD=VALUE (as in `flatfree run`) changes every run of the demo, after the other
@@ -1015,13 +1037,14 @@ still written, with the reason).""")
 @click.option("--noise/--no-noise", default=True, show_default=True, help="Sensor noise.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Seed of the sensor noise.")
+@_CONTROL_PERIOD
 @click.option("--set", "settings", multiple=True, metavar="FIELD=VALUE",
-              help="Set a scenario field of every run, e.g. timing.control_dt_s=0.002 "
+              help="Set a scenario field of every run, e.g. actuators.steer_tau_s=0.05 "
                    "(repeatable; applied after the other options).")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: when stderr is a terminal).")
-def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, seed, settings,
-         progress) -> None:
+def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, seed,
+         control_period_s, settings, progress) -> None:
     """Reproduce the paper: its three controllers, figures 2-6, a table, an HTML report.
 
     Runs the paper's scenarios (the peugeot406 on the 10DoF model, noisy sensors) with the
@@ -1036,7 +1059,7 @@ def demo(out_dir: Path, track, duration_s, rec_duration_s, no_recorded, noise, s
 
     tasks = _demo_tasks(track=track, seed=seed, duration_s=duration_s,
                         rec_duration_s=rec_duration_s, no_recorded=no_recorded, noise=noise,
-                        settings=settings)
+                        control_period_s=control_period_s, settings=settings)
     # the desired path (and a check of the track name before the long part)
     try:
         ref_xy = _xy(reference_of(tasks[0][2]))

@@ -234,6 +234,11 @@ class Timing:
     ``duration_s`` is capped at twice that horizon (:func:`flatfree.simulation.prepare`; the
     loop allocates its log and sensor noise for the whole duration). On the clock schedule
     (``schedule = "time"``) None is the reference's duration and a ``duration_s`` is kept.
+
+    The model-free controllers' estimator windows and denoisers are counts of samples, tuned
+    at ``control_dt_s`` = 0.001 s: :meth:`Scenario.with_control_period` changes the period and
+    rescales them to the same durations (changing ``control_dt_s`` alone keeps the counts, and
+    the run warns when their durations are far from the tuned ones).
     """
 
     plant_dt_s: float = 0.001
@@ -445,6 +450,27 @@ class Scenario:
         :func:`scenario_with_settings`.
         """
         return scenario_with_settings(self, settings)
+
+    def with_control_period(self, dt: float) -> Scenario:
+        """A copy whose controller runs every ``dt`` [s] (``timing.control_dt_s``, a whole
+        multiple of ``timing.plant_dt_s``) with the same estimator windows and denoisers in
+        time: the controller's sample counts are rescaled from the present control period
+        (:func:`flatfree.controllers.vehicle.rescale_sample_counts`) and written into
+        ``controller_settings``. Setting ``timing.control_dt_s`` alone keeps the counts, so the
+        windows' durations change with the period (a warning says so when they are far from
+        the tuned ones)."""
+        from flatfree.controllers.vehicle import (
+            rescale_sample_counts,
+            sample_counts,
+            settings_from_mapping,
+        )
+
+        timing = dataclasses.replace(self.timing, control_dt_s=dt)
+        settings = settings_from_mapping(self.controller, self.controller_settings)
+        counts = sample_counts(rescale_sample_counts(settings, timing.control_dt_s,
+                                                     from_dt=self.timing.control_dt_s))
+        return dataclasses.replace(self, timing=timing,
+                                   controller_settings={**self.controller_settings, **counts})
 
     def load_vehicle(self) -> VehicleParams:
         """The car the scenario runs: its preset or file with ``vehicle_overrides`` applied

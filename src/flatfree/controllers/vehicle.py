@@ -78,6 +78,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -130,6 +131,9 @@ __all__ = [
     "OUTER_WN",
     "OUTER_ZETA",
     "MFC_FLAT_OUTER_WN",
+    "TUNED_PERIOD_S",
+    "sample_counts",
+    "rescale_sample_counts",
 ]
 
 
@@ -195,6 +199,67 @@ def _check_denoise(settings) -> None:
         # 0 (off), or a window of at least 2 samples, stored as an int (a TOML 100.0 too)
         object.__setattr__(settings, k, 0 if as_real(v) == 0.0 else
                            whole(k, v, 2, "samples (0: off)"))
+
+
+#: The control period [s] at which the model-free settings' sample counts (estimator windows,
+#: denoisers) were chosen: the defaults' and the named scenarios' are counts at 1 kHz.
+TUNED_PERIOD_S = 0.001
+
+# the settings' fields that count samples (those a settings class has)
+_SAMPLE_COUNTS = ("window_lon", "window_lat", "denoise_lon", "denoise_lat", "denoise_yaw")
+
+
+def sample_counts(settings) -> dict[str, int]:
+    """The fields of a controller's settings that count samples (estimator windows,
+    denoisers), with their values; empty for :class:`FlatnessSettings`."""
+    return {k: getattr(settings, k) for k in _SAMPLE_COUNTS if hasattr(settings, k)}
+
+
+def rescale_sample_counts(settings, dt: float, *, from_dt: float = TUNED_PERIOD_S):
+    """``settings`` with every sample count moved from control period ``from_dt`` [s] to
+    ``dt`` [s] so that each window and denoiser keeps its duration.
+
+    A count ``n`` becomes the nearest whole number to ``n from_dt / dt``, at least 2 (the
+    smallest window the settings accept); 0 (a denoiser off) stays 0. Settings without sample
+    counts (:class:`FlatnessSettings`) come back unchanged. The gains, time constants and
+    rates of the settings are in seconds already and stay. What the durations are worth at
+    another rate was measured on the 10DoF with noise (benchmarks/README.md "Control period");
+    the windows of the algebraic estimator lose their noise averaging as the rate falls.
+    """
+    dt = positive("dt", dt, "s")
+    ratio = positive("from_dt", from_dt, "s") / dt
+    changes = {k: 0 if n == 0 else max(2, round(n * ratio))
+               for k, n in sample_counts(settings).items()}
+    return dataclasses.replace(settings, **changes) if changes else settings
+
+
+# a window whose duration is off the tuned one by more than this factor is warned about
+_PERIOD_WARN_RATIO = 1.5
+
+
+def _warn_if_untuned_period(controller: str, settings, dt: float) -> None:
+    """Warn when a model-free controller runs at a period other than :data:`TUNED_PERIOD_S`
+    with an estimator window whose duration is more than 1.5x off the default window's
+    (the counts were left as tuned at 1 kHz): at 100 Hz the natural-output controller's
+    default windows span 1 s instead of 0.1 s and the car leaves the track within 5 s
+    (benchmarks/README.md "Control period"). The denoisers are not checked: their tuned
+    lengths differ between the named scenarios (``denoise_yaw`` 50 or 20 samples)."""
+    if abs(dt - TUNED_PERIOD_S) <= 1e-9 * TUNED_PERIOD_S:
+        return
+    tuned = type(settings)()
+    off = []
+    for k in ("window_lon", "window_lat"):
+        n = getattr(settings, k)
+        span, tuned_span = n * dt, getattr(tuned, k) * TUNED_PERIOD_S
+        if not 1.0 / _PERIOD_WARN_RATIO <= span / tuned_span <= _PERIOD_WARN_RATIO:
+            off.append(f"{k} = {n} samples spans {span:g} s (tuned: {tuned_span:g} s)")
+    if off:
+        warnings.warn(
+            f"{controller} at a control period of {dt:g} s: its sample counts were tuned at "
+            f"{TUNED_PERIOD_S:g} s; {'; '.join(off)}. It is not the tuned controller and may "
+            f"leave the track: scale them with settings.for_period({dt:g}) "
+            "(Scenario.with_control_period, flatfree run --control-period)",
+            RuntimeWarning, stacklevel=3)
 
 
 def _denoiser(n: int) -> np.ndarray:
@@ -482,6 +547,12 @@ class MfcNaturalSettings:
             raise ValueError(
                 f"derivative_lat = {self.derivative_lat!r}: must be 'model' or 'algebraic'")
 
+    def for_period(self, dt: float, *, from_dt: float = TUNED_PERIOD_S) -> MfcNaturalSettings:
+        """These settings at control period ``dt`` [s]: every window and denoiser keeps its
+        duration (:func:`rescale_sample_counts`; the counts given are at ``from_dt``, the
+        defaults' 1 ms). ``MfcNaturalSettings().for_period(0.01)`` for a 100 Hz loop."""
+        return rescale_sample_counts(self, dt, from_dt=from_dt)
+
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class MfcFlatSettings:
@@ -567,6 +638,12 @@ class MfcFlatSettings:
                 raise ValueError(f"{k} = {getattr(self, k)!r} 1/s^2: must be >= 0")
         for k in ("window_lon", "window_lat"):  # stored as ints (a TOML 100.0 too)
             object.__setattr__(self, k, whole(k, getattr(self, k), 2, "samples"))
+
+    def for_period(self, dt: float, *, from_dt: float = TUNED_PERIOD_S) -> MfcFlatSettings:
+        """These settings at control period ``dt`` [s]: every window and denoiser keeps its
+        duration (:func:`rescale_sample_counts`; the counts given are at ``from_dt``, the
+        defaults' 1 ms). ``MfcFlatSettings().for_period(0.01)`` for a 100 Hz loop."""
+        return rescale_sample_counts(self, dt, from_dt=from_dt)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -746,6 +823,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
     sees the difference as part of F).
     """
     dt = positive("dt", dt, "s")
+    _warn_if_untuned_period(controller, settings, dt)
     # with feed_applied the actuator alone rate-limits the steer and the estimator is told what
     # it applied; a second rate limit inside the iPD would integrate the yaw damper's term
     feed = bool(getattr(settings, "feed_applied", False))
@@ -958,19 +1036,24 @@ class NaturalOutputController:
     Parameters
     ----------
     dt : float
-        Control period [s] (the settings were tuned at 1 ms; scale the windows with it).
-        Measured on the 10DoF with noise (benchmarks/README.md "Acceleration-aided F"): with
-        :data:`flatfree.scenarios.IMU_SETTINGS` 100 Hz still holds Norisring to 0.73 cm
-        (``benchmarks/imu_sensitivity.py --only rate``); the algebraic estimator needs 500 Hz
-        or more.
+        Control period [s]. The settings' windows and denoisers count samples, tuned at 1 ms:
+        at another period pass ``settings.for_period(dt)``, which keeps their durations (the
+        controller warns when their durations are far from the tuned ones: at 100 Hz the
+        default windows would span 1 s and the car leaves the track). Measured on the 10DoF
+        with noise, rescaled (``benchmarks/control_period.py``, benchmarks/README.md "Control
+        period"): with :data:`flatfree.scenarios.IMU_SETTINGS` 100 Hz holds Norisring to
+        0.73 cm and Spa to 1.22 cm; the algebraic estimator holds
+        Norisring (1.80 / 2.48 cm at 500 / 200 Hz) and leaves the track at 100 Hz.
     actuators : ActuatorParams
         Steer and torque limits (``ActuatorParams.from_vehicle(load_vehicle(...))`` or your
         own). The controller clips to them and, unless told what was applied, assumes that
         these actuators (:func:`flatfree.actuators.actuate_step`: dead time, lag, rate limit,
         range, power cap) applied its previous command.
     settings : MfcNaturalSettings, optional
-        Default: the peugeot406 tuning (:data:`flatfree.scenarios.NATURAL_SETTINGS`); use
-        ``alpha_lat`` of the order of your car's steer gain (``natural_settings("dallara_av21")``).
+        Default: the peugeot406 tuning (:data:`flatfree.scenarios.NATURAL_SETTINGS`) at 1 kHz;
+        use ``alpha_lat`` of the order of your car's steer gain
+        (``natural_settings("dallara_av21")``), and :meth:`MfcNaturalSettings.for_period` at
+        another control period.
 
     Examples
     --------
@@ -980,6 +1063,14 @@ class NaturalOutputController:
     ...     dt=0.001, actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")))
     >>> ctrl.reset()
     >>> torque, steer = ctrl.step(vx=20.0, r=0.0, e_y=0.01, kappa=0.0, vx_ref=20.0)
+
+    At 100 Hz (a typical ROS 2 loop), the inertial-unit variant with its windows rescaled:
+
+    >>> from flatfree.scenarios import natural_settings
+    >>> imu = MfcNaturalSettings(**natural_settings("peugeot406", imu=True))
+    >>> slow = NaturalOutputController(
+    ...     dt=0.01, actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")),
+    ...     settings=imu.for_period(0.01))
     """
 
     __slots__ = ("_arrays", "_act", "_act_p", "_act_s", "_dt", "_settings", "_meas", "_ref",
