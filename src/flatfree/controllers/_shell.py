@@ -17,13 +17,14 @@ raises :func:`nonfinite_command`'s ``ValueError`` instead of returning NaN.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-__all__ = ["CompiledController", "nonfinite_command"]
+__all__ = ["CompiledController", "nonfinite_command", "independent_copy"]
 
 
 def nonfinite_command(owner: str, commands: Mapping[str, float], inputs: Mapping[str, object],
@@ -45,10 +46,24 @@ def nonfinite_command(owner: str, commands: Mapping[str, float], inputs: Mapping
                       f"inputs or still in the estimator's window); {after}")
 
 
+def independent_copy(obj):
+    """``copy.copy`` of a controller shell: a controller in the same state that steps on its
+    own (the state arrays copied). The shallow copy Python makes by default would share them,
+    and two controllers would step one state."""
+    return copy.deepcopy(obj)
+
+
 class CompiledController:
-    """Frozen parameters plus the compiled kernel's parameter and state arrays."""
+    """Frozen parameters plus the compiled kernel's parameter and state arrays.
+
+    A controller is not safe to step from two threads at once (its state arrays are updated
+    in place): give each loop its own. ``copy.copy`` gives an independent controller in the
+    same state (:func:`independent_copy`), e.g. to try a step without disturbing the original.
+    """
 
     __slots__ = ("_params", "_p", "_s")
+
+    __copy__ = independent_copy
 
     def __init__(self, params: Any, params_type: type, make_state) -> None:
         if not isinstance(params, params_type):

@@ -88,7 +88,7 @@ from numba import njit
 
 from flatfree._validate import as_real, finite, positive, real, whole
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
-from flatfree.controllers._shell import nonfinite_command
+from flatfree.controllers._shell import independent_copy, nonfinite_command
 from flatfree.controllers.flatness_control import (
     FlatnessControlParams,
     flatness_step,
@@ -1031,7 +1031,9 @@ class NaturalOutputController:
     (:func:`vehicle_step` with :class:`MfcNaturalSettings`): an iP on the speed (wheel torque)
     and an iPD on the lateral deviation (steer), plus the settings' yaw damper and speed
     schedule. Call :meth:`step` once per control period ``dt``; hold its outputs until the next
-    call (zero-order hold: the estimators assume it).
+    call (zero-order hold: the estimators assume it). One controller per loop: its state is
+    updated in place (not safe to step from two threads at once); ``copy.copy`` gives an
+    independent controller in the same state.
 
     Parameters
     ----------
@@ -1075,6 +1077,8 @@ class NaturalOutputController:
 
     __slots__ = ("_arrays", "_act", "_act_p", "_act_s", "_dt", "_settings", "_meas", "_ref",
                  "_prev", "_vx_prev")
+
+    __copy__ = independent_copy
 
     def __init__(self, *, dt: float, actuators: ActuatorParams,
                  settings: MfcNaturalSettings | None = None) -> None:
