@@ -528,6 +528,10 @@ def test_flying_lap_speed_matches_the_power_law_closed_form():
     real = load_vehicle("peugeot406")
     np.testing.assert_array_equal(
         flying_lap_speed(s, np.full_like(s, 20.0), real, closed=True), 20.0)
+    # the compiled integration reads both arrays point by point: mismatched or empty refused
+    for bad_s, bad_v in ((s, v_ref[:-1]), (s[:0], v_ref[:0]), (s[None, :], v_ref[None, :])):
+        with pytest.raises(ValueError, match="^s, v_ref: shapes"):
+            flying_lap_speed(bad_s, bad_v, real, closed=True)
 
 
 def test_lvms_oval_start_is_reachable_and_the_car_does_not_spin():

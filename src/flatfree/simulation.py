@@ -542,30 +542,37 @@ def flying_lap_speed(s: np.ndarray, v_ref: np.ndarray, vehicle: VehicleParams, *
     .. [VM] shared/reference/VEHICLE_MODEL.md 1.9 (drag, rolling resistance); the power cap:
        :class:`flatfree.actuators.ActuatorParams`.
     """
-    s = np.asarray(s, dtype=float)
-    v_ref = np.asarray(v_ref, dtype=float)
+    s = np.ascontiguousarray(s, dtype=float)
+    v_ref = np.ascontiguousarray(v_ref, dtype=float)
+    if s.ndim != 1 or s.shape != v_ref.shape or s.size == 0:
+        raise ValueError(f"s, v_ref: shapes {s.shape}, {v_ref.shape}: expected the same 1-d "
+                         "shape with at least one point")
     drv = _drive_array(vehicle)  # the drive model of tracks.speed.drive_acceleration
-
-    def acc(v: float) -> float:
-        return _drive_acc(v, drv)
-
     v = np.empty_like(v_ref)
-    v0 = float(v_ref[0])
+    _flying_lap_kernel(s, v_ref, drv, closed, int(max_laps), v)
+    return v
+
+
+@njit(cache=True)
+def _flying_lap_kernel(s, v_ref, drv, closed, max_laps, v):
+    """:func:`flying_lap_speed`'s integration, written into ``v`` (compiled: a lap has 10^4-10^5
+    points, and the loop in Python took 16 ms of a Norisring run's 30 ms preparation)."""
+    v0 = v_ref[0]
     for _ in range(max_laps if closed else 1):
         v[0] = v0
-        for i in range(len(s) - 1):
+        for i in range(s.shape[0] - 1):
             ds = s[i + 1] - s[i]
             w = v[i] * v[i]
-            w1 = w + 2.0 * ds * acc(v[i])  # Heun predictor in v^2
-            w1 = w + ds * (acc(v[i]) + acc(math.sqrt(max(w1, 0.0))))
-            v[i + 1] = min(float(v_ref[i + 1]), math.sqrt(max(w1, 0.0)))
+            a0 = _drive_acc(v[i], drv)
+            w1 = w + 2.0 * ds * a0  # Heun predictor in v^2
+            w1 = w + ds * (a0 + _drive_acc(math.sqrt(max(w1, 0.0)), drv))
+            v[i + 1] = min(v_ref[i + 1], math.sqrt(max(w1, 0.0)))
         if not closed:
             break
-        v0_next = min(float(v_ref[0]), float(v[-1]))  # s[-1] is s[0] one lap on
+        v0_next = min(v_ref[0], v[v.shape[0] - 1])  # s[-1] is s[0] one lap on
         if abs(v0_next - v0) <= 1e-9 * max(v0, 1.0):
             break
         v0 = v0_next
-    return v
 
 
 @dataclass(frozen=True, slots=True, eq=False)
