@@ -789,3 +789,16 @@ def test_demo_set_changes_every_run_and_refuses_what_differs_between_them(runner
     assert res.exit_code == 2
     assert "paper, flatness" in res.stderr and "road.mu=-1" in res.stderr
     assert not (tmp_path / "o" / "report.html").exists()
+
+
+def test_switching_to_the_natural_output_controller_takes_the_car_s_tuning():
+    """From a flat-output base, --controller mfc-natural took empty settings (the peugeot406's
+    alpha_lat 30) whatever the car; it now takes the car's (the same as from `paper`)."""
+    from flatfree.cli import build_scenario
+    from flatfree.scenarios import DALLARA_NATURAL_SETTINGS, NATURAL_SETTINGS
+
+    for base in ("paper-flatness", "paper-mfc-flat"):
+        sc = build_scenario(base, controller="mfc-natural", vehicle="dallara_av21")
+        assert sc.controller_settings == DALLARA_NATURAL_SETTINGS
+        assert build_scenario(base, controller="mfc-natural").controller_settings == \
+            NATURAL_SETTINGS

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -610,3 +611,26 @@ def test_malformed_tables_in_a_file_are_value_errors(text, words):
         scenario_from_toml(text, source="f.toml")
     for w in words:
         assert w in str(info.value), (w, str(info.value))
+
+
+def test_a_car_the_model_free_settings_were_not_tuned_on_is_warned_about(tmp_path):
+    """A car file, whatever it holds (here the dallara_av21's own file renamed), or a bundled
+    preset without a tuning runs the peugeot406's model-free settings: said, naming alpha_lat.
+    The tuned cars and the flatness controller (its model is the car's) are not."""
+    import shutil
+
+    from flatfree.scenarios import named_scenario
+    from flatfree.vehicles.params import vehicle_file
+
+    copy = tmp_path / "my_formula.toml"
+    shutil.copy(vehicle_file("dallara_av21"), copy)
+    for name, car in (("paper", "bmw320i"), ("paper", str(copy)), ("paper-imu", "bmw320i"),
+                      ("paper-mfc-flat", "dallara_av21")):
+        with pytest.warns(UserWarning, match="alpha_lat") as got:
+            named_scenario(name, vehicle=car)
+        assert str(got[0].message).startswith(f"vehicle {car!r}: the ")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name, car in (("paper", "dallara_av21"), ("paper", "Peugeot406"),
+                          ("paper-flatness", "bmw320i"), ("paper-mismatch", str(copy))):
+            named_scenario(name, vehicle=car)

@@ -993,3 +993,29 @@ def test_a_track_run_longer_than_its_path_is_capped_near_the_path_end():
     clock = sc.with_(controller_settings={**sc.controller_settings, "schedule": "time"})
     assert prepare(clock).n_steps == int(round(default.reference.duration / dt))
     assert prepare(clock.with_(timing=Timing(duration_s=3600.0))).n_steps == 3_600_000
+
+
+def test_a_patch_beyond_the_path_is_refused_a_late_fault_and_a_3dof_road_are_said():
+    """Friction patches are placed by the path's arc length, modulo the lap on a closed path:
+    one starting at or beyond the lap's length never applied, silently (a reviewer's patch
+    meant for lap 2). A fault after the run's end never happens; the 3DoF plant's linear
+    tyres ignore the road's friction (it logged mu as given)."""
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare
+
+    sc = named_scenario("paper-noise-free", duration_s=2.0)
+    lap = prepare(sc).reference.path.length
+    ok = FrictionPatch(s_start_m=lap - 10.0, s_end_m=lap + 50.0, mu=0.5)  # across the line
+    prepare(sc.with_(road=RoadSpec(patches=(ok,))))
+    late = FrictionPatch(s_start_m=lap + 300.0, s_end_m=lap + 600.0, mu=0.5)
+    with pytest.raises(ValueError, match=r"^road.patch\[1\].s_start_m = .* at or beyond the "
+                                         r"lap's length, .* never applies"):
+        prepare(sc.with_(road=RoadSpec(patches=(ok, late))))
+    gap = Fault(kind="nan_measurement", channel="y", t_start_s=5.0, duration_s=0.1)
+    with pytest.warns(UserWarning, match=r"fault\[0\] \(nan_measurement\) at t_start_s = 5 s"):
+        prepare(sc.with_(faults=(gap,)))
+    with pytest.warns(UserWarning, match="do not act on the 3dof plant"):
+        prepare(sc.with_(plant="3dof", road=RoadSpec(mu=0.5)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        prepare(sc.with_(plant="3dof"))

@@ -29,6 +29,7 @@ import sys
 import tempfile
 import textwrap
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -510,8 +511,15 @@ def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
         raise _fail(f"unknown scenario {spec!r}: give a TOML file, or a named scenario: "
                     f"{', '.join(mod.SCENARIO_NAMES)}")
     if vehicle is not None and not spec.startswith("recorded"):  # the recorded: their own car
-        return _named(spec, vehicle=vehicle)
+        with warnings.catch_warnings():
+            # said by build_scenario for the run's controller (--controller may change it)
+            warnings.filterwarnings("ignore", message=_UNTUNED, category=UserWarning)
+            return _named(spec, vehicle=vehicle)
     return _named(spec)
+
+
+# the start of flatfree.scenarios.warn_if_untuned's message
+_UNTUNED = r"vehicle .*: the .* controller's settings were tuned on"
 
 
 def build_scenario(spec: str | None = None, *, controller: str | None = None,
@@ -523,7 +531,8 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     """The scenario of ``flatfree run``: the base (file, name or default) with the options.
 
     ``--controller`` different from the scenario's drops the scenario's controller settings
-    (they belong to the other controller); ``--cf-scale``/``--cr-scale`` go into the
+    (they belong to the other controller; ``mfc-natural`` then takes the car's tuning,
+    :func:`flatfree.scenarios.natural_settings`); ``--cf-scale``/``--cr-scale`` go into the
     controller settings (only the flatness controller takes them: another one refuses them
     when the run starts). ``settings`` (``--set FIELD=VALUE``, repeatable) are applied last,
     in order, by :func:`flatfree.scenario.scenario_with_settings`: a ``--set`` wins over the
@@ -548,6 +557,9 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if controller is not None and controller != sc.controller:
             changes["controller"] = controller
             ctrl_settings = {}
+            if controller == "mfc-natural":  # its tuning is the car's (alpha_lat)
+                ctrl_settings = _scenarios_module().natural_settings(
+                    sc.vehicle if vehicle is None else vehicle)
         if cf_scale is not None:
             ctrl_settings["cf_scale"] = cf_scale
         if cr_scale is not None:
@@ -563,6 +575,8 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             # a file's or a recorded scenario's car, with its tuning as below (the description
             # is the file's own); a named track scenario has it already (_load_base): no change
             changes["vehicle"] = vehicle
+            _scenarios_module().warn_if_untuned(vehicle, changes.get("controller",
+                                                                     sc.controller))
             natural = _scenarios_module().natural_settings
             if changes.get("controller", sc.controller) == "mfc-natural" and vehicle != sc.vehicle:
                 for imu in (False, True):

@@ -289,7 +289,12 @@ class ActuatorSpec:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class FrictionPatch:
-    """A stretch of road [s_start_m, s_end_m) along the reference path with friction ``mu``."""
+    """A stretch of road [s_start_m, s_end_m) along the reference path with friction ``mu``.
+
+    ``s`` is the path's arc length; on a closed path it is taken modulo the lap, so a patch
+    acts on every lap and must start within the lap (a run refuses one that starts at or
+    beyond the path's length: it would never apply).
+    """
 
     s_start_m: float
     s_end_m: float

@@ -81,6 +81,7 @@ References
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 
@@ -99,6 +100,8 @@ __all__ = [
     "NATURAL_SETTINGS",
     "DALLARA_NATURAL_SETTINGS",
     "natural_settings",
+    "TUNED_VEHICLES",
+    "warn_if_untuned",
     "IMU_SETTINGS",
     "ACCEL_SIGMA_MPS2",
     "ACCEL_BIAS_MPS2",
@@ -171,6 +174,34 @@ IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_dampi
                                               "denoise_yaw": 20}
 
 
+#: The cars each model-free design's settings were tuned on (its alpha_lat is tied to the car:
+#: MfcNaturalSettings, MfcFlatSettings); any other car runs the peugeot406's settings.
+TUNED_VEHICLES: dict[str, tuple[str, ...]] = {"mfc-natural": ("peugeot406", "dallara_av21"),
+                                             "mfc-flat": ("peugeot406",)}
+
+
+def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str, *,
+                    stacklevel: int = 2) -> None:
+    """Warn that ``controller``'s settings were not tuned on ``vehicle`` (a car other than
+    :data:`TUNED_VEHICLES`' bundled presets, a file too, whatever it holds): they are the
+    peugeot406's, and alpha_lat follows the car's steer gain. Nothing for the flatness
+    controller (its model is the car's own)."""
+    tuned = TUNED_VEHICLES.get(controller)
+    if tuned is None or bundled_name(vehicle) in tuned:
+        return
+    if controller == "mfc-natural":
+        how = ("alpha_lat [(m/s^2)/rad] follows the car's steer gain C_f/m (peugeot406: 65, "
+               "tuned 30; dallara_av21: 95, tuned 60)")
+    else:
+        how = ("alpha_lat [(kg m^2/s^2)/rad] is of the order of the steer's effect on y2' "
+               "over the estimator window (MfcFlatSettings)")
+    warnings.warn(
+        f"vehicle {str(vehicle)!r}: the {controller} controller's settings were tuned on "
+        f"{' and '.join(tuned)} only and are the peugeot406's here; {how}: retune "
+        "controller_settings.alpha_lat for this car (benchmarks/sweep_seeds.py --vehicle V "
+        "--set alpha_lat=A measures it)", UserWarning, stacklevel=stacklevel + 1)
+
+
 def natural_settings(vehicle: str, *, imu: bool = False) -> dict[str, float | int | str]:
     """The natural-output controller's settings tuned for a bundled preset (a copy):
     :data:`DALLARA_NATURAL_SETTINGS` for ``dallara_av21`` (in any spelling the loader takes,
@@ -220,7 +251,9 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         loader takes, or a vehicle TOML file's path; default ``peugeot406``, the paper's car).
         The natural-output designs then take the settings tuned for it
         (:func:`natural_settings`: alpha_lat is tied to the car), as ``flatfree run
-        --vehicle`` does. (``scenario.with_(vehicle=...)`` changes the car and
+        --vehicle`` does; a car they were not tuned on (:data:`TUNED_VEHICLES`: a file
+        too, whatever it holds) runs the peugeot406's, with a warning
+        (:func:`warn_if_untuned`). (``scenario.with_(vehicle=...)`` changes the car and
         keeps every other setting, the tuning included.) An error for the recorded scenarios,
         whose car is the recording's, and for a name that is not bundled (``ValueError`` here;
         a path is read at the run).
@@ -257,6 +290,8 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         vehicle_file(vehicle)
     controller, settings = _BASE[base]
     car = "peugeot406" if vehicle is None else vehicle
+    if vehicle is not None:
+        warn_if_untuned(vehicle, controller)
     if controller == "mfc-natural":
         settings = natural_settings(car, imu=imu)
     # the car as the scenario holds it (a bundled one in its own spelling)

@@ -654,6 +654,31 @@ def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
         "that speed", UserWarning, stacklevel=3)
 
 
+def _check_road(sc: Scenario, ref: Reference) -> None:
+    """Refuse a friction patch the car can never reach, and say when the plant ignores the
+    road's friction.
+
+    A patch is found by the path's own arc length (on a closed path taken modulo the lap:
+    :func:`_mu_at`; the patch then acts on every lap), so one that starts at or beyond the
+    path's length (the lap's, on a closed path) never applies: ``ValueError`` naming it. The
+    3DoF plant's linear tyres have no friction limit: ``road.mu`` and the patches do not act
+    on it (a warning; the trajectory logs them as given).
+    """
+    length = ref.path.length
+    what = "the lap's length" if ref.path.closed else "the path's length"
+    for i, p in enumerate(sc.road.patches):
+        if p.s_start_m >= length:
+            raise ValueError(
+                f"road.patch[{i}].s_start_m = {p.s_start_m!r} m: at or beyond {what}, "
+                f"{length:.1f} m, so the patch never applies (patches are placed by the arc "
+                "length along the path" + (", modulo the lap, and act on every lap)"
+                                           if ref.path.closed else ")"))
+    if sc.plant == "3dof" and (sc.road.mu != 1.0 or sc.road.patches):
+        warnings.warn(f"road.mu = {sc.road.mu!r} and {len(sc.road.patches)} friction patch(es) "
+                      "do not act on the 3dof plant (linear tyres, no friction limit): use "
+                      "plant = '10dof' for the road's friction", UserWarning, stacklevel=4)
+
+
 def reference_of(sc: Scenario | str) -> Reference:
     """The reference a run of ``sc`` follows (``prepare(sc).reference``), without building the
     controllers and their 3DoF references; the warnings a run gives about it are not repeated
@@ -675,6 +700,7 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     vehicle = sc.load_vehicle()
     ref = _reference(sc, vehicle)
     _warn_if_beyond_steer_lock(ref, vehicle)
+    _check_road(sc, ref)
     bic = Bicycle3DoFParams.from_vehicle(vehicle)
     if python_controller is None:
         _warn_if_flat_output_singular(ref, bic, sc.controller, vehicle)
@@ -733,6 +759,11 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     else:
         duration = ref.duration
     n_steps = int(round(duration / sc.timing.plant_dt_s))
+    late = [f"fault[{i}] ({f.kind}) at t_start_s = {f.t_start_s:g} s"
+            for i, f in enumerate(sc.faults) if f.t_start_s >= duration]
+    if late:
+        warnings.warn(f"{', '.join(late)}: at or after the run's end ({duration:g} s at most), "
+                      "never happens", UserWarning, stacklevel=3)
     # start on the reference, with its sideslip and path curvature, at the speed the car can
     # have there: on a closed track the car arrives at the line on a flying lap, and the
     # friction-only profile may ask for more than the engine gives (LVMS: 49.7 m/s at s = 0,
