@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -304,3 +305,117 @@ def test_a_value_that_looks_like_a_path_is_a_missing_file_for_every_loader(value
     for load in (load_vehicle, load_tire, load_track, load_recording):
         with pytest.raises(ValueError, match="file not found"):
             load(value)
+
+
+_PJ = "pacejka2006_205_60R15"
+
+
+def _tire_text(name=_PJ):
+    from importlib import resources
+
+    folder = resources.files("flatfree.vehicles") / "data" / "tires"
+    return (folder / f"{name}.toml").read_text("utf-8")
+
+
+def _with_tires(front, rear=f'"{_PJ}"'):
+    """The peugeot406 preset's text with its tyre lines replaced."""
+    text = _preset_text()
+    old = f'tire_front = "{_PJ}"\ntire_rear = "{_PJ}"\n'
+    assert old in text
+    return text.replace(old, f"tire_front = {front}\ntire_rear = {rear}\n")
+
+
+def test_a_tyre_path_in_a_vehicle_file_is_relative_to_its_folder(tmp_path, monkeypatch):
+    """As a scenario file's paths: read from another directory, a vehicle file's relative tyre
+    path is the file next to it (not one in the current directory); a missing one's error names
+    the vehicle file and where the tyre was looked for; bundled names and absolute paths stay."""
+    cars, elsewhere = tmp_path / "cars", tmp_path / "elsewhere"
+    (cars / "sub").mkdir(parents=True)
+    elsewhere.mkdir()
+    (cars / "mytire.toml").write_text(_tire_text().replace(f'name = "{_PJ}"', 'name = "mine"'))
+    (cars / "sub" / "rear.toml").write_text(_tire_text("commonroad"))
+    (elsewhere / "mytire.toml").write_text("not = [toml")  # the current directory's: not read
+    monkeypatch.chdir(elsewhere)
+    car = _write(cars, _with_tires('"mytire.toml"', '"sub/rear.toml"'))
+    v = load_vehicle(car)
+    assert v.tire_front == dataclasses.replace(load_tire(_PJ), name="mine")
+    assert v.tire_rear == load_tire("commonroad")
+    same = load_vehicle(_write(cars, _with_tires(f'"{cars / "mytire.toml"}"', f'"{_PJ}"')))
+    assert same.tire_front == v.tire_front and same.tire_rear == load_tire(_PJ)
+    car = _write(cars, _with_tires('"none.toml"'))
+    with pytest.raises(ValueError, match=rf"^vehicle file {re.escape(str(car))}: tire_front: "
+                                         rf"tire none\.toml: file not found: "
+                                         rf"{re.escape(str(cars / 'none.toml'))}$"):
+        load_vehicle(car)
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        (lambda text: "steering_ratio = 15.5\n" + text, "steering_ratio"),
+        (lambda text: text.replace("[params]", "[param]"), "param"),
+        (lambda text: text + '\n[param]\nmass = { value = 1.0, unit = "kg", source = "x" }\n',
+         "param"),
+    ],
+    ids=["key", "misspelt-params", "extra-table"],
+)
+def test_a_vehicle_file_with_an_unknown_key_or_table_is_refused(tmp_path, change, key):
+    """A top-level key or table the loader does not read (a misspelt ``[params]``, a parameter
+    outside it) was ignored: the car loaded without it."""
+    car = _write(tmp_path, change(_preset_text()))
+    with pytest.raises(ValueError, match=rf"^vehicle file {re.escape(str(car))}: unknown "
+                                         rf"key\(s\) '{key}'; valid: name, drive, tire_front, "
+                                         r"tire_rear, params$"):
+        load_vehicle(car)
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        (f'{{ set = "{_PJ}", lambda_ky = 0.9, lamda_kx = 1.1, source = "x" }}',
+         (r"unknown key\(s\) 'lamda_kx'; valid: set, source, name, .*, lambda_kx, "
+          r"relaxation_length_x, relaxation_length_y$")),
+        (f'{{ set = "{_PJ}", lambda_ky = 0.9, unit = "-", source = "x" }}',
+         r"unknown key\(s\) 'unit'; valid: set, source, "),
+        ('{ sett = "commonroad" }', r"unknown key\(s\) 'sett'; valid: set, "),
+        ("{ set = 5 }", r"tire entry \{'set': 5\} is neither a set name or path nor a table "),
+        ("5", r"tire entry 5 is neither a set name or path nor a table "),
+    ],
+    ids=["misspelt-key", "unit", "misspelt-set", "set-not-a-name", "not-a-name"],
+)
+def test_a_bad_tyre_entry_names_the_file_the_side_and_the_key(tmp_path, entry, message):
+    """An unknown key in a tyre table (or a set that is no name) was a raw TypeError."""
+    car = _write(tmp_path, _with_tires(f'"{_PJ}"', entry))
+    with pytest.raises(ValueError, match=rf"^vehicle file {re.escape(str(car))}: tire_rear: "
+                                         + message):
+        load_vehicle(car)
+
+
+def test_errors_building_a_vehicle_from_a_file_name_the_file(tmp_path):
+    """A value the file holds that VehicleParams or TireParams refuses: the error names the file
+    (and the tyre's side); built in Python, the same errors are unchanged."""
+    car = _write(tmp_path, _preset_text().replace("value = 1.08,", "value = 1.5,"))
+    lf = r"lf \+ lr = 3\.12 m is inconsistent with wheelbase = 2\.7 m"
+    with pytest.raises(ValueError, match=rf"^vehicle file {re.escape(str(car))}: {lf}"):
+        load_vehicle(car)
+    with pytest.raises(ValueError, match=rf"^{lf}"):
+        dataclasses.replace(load_vehicle("peugeot406"), lf=1.5)
+    car = _write(tmp_path, _preset_text().replace("value = 1500.0,", 'value = "1500",'))
+    with pytest.raises(ValueError, match=rf"^vehicle file {re.escape(str(car))}: "
+                                         r"mass = '1500' kg: expected a real number$"):
+        load_vehicle(car)
+    car = _write(tmp_path, _with_tires(f'{{ set = "{_PJ}", lambda_ky = -0.9, source = "x" }}'))
+    with pytest.raises(ValueError, match=rf"^vehicle file {re.escape(str(car))}: tire_front: "
+                                         r"lambda_ky = -0\.9: must be > 0$"):
+        load_vehicle(car)
+    tire = tmp_path / "bad.toml"
+    tire.write_text(_tire_text().replace("pkx1 = { value = 21.51", "pkx1 = { value = -21.51"))
+    bad = r"pkx1 = -21\.51: the slip stiffness factor must be > 0$"
+    with pytest.raises(ValueError, match=rf"^tire file {re.escape(str(tire))}: {bad}"):
+        load_tire(tire)
+    car = _write(tmp_path, _with_tires('"bad.toml"'))
+    with pytest.raises(ValueError, match=rf"^vehicle file {re.escape(str(car))}: tire_front: "
+                                         rf"tire file {re.escape(str(tire))}: {bad}"):
+        load_vehicle(car)
+    with pytest.raises(ValueError, match=rf"^{bad}"):
+        dataclasses.replace(load_tire(_PJ), pkx1=-21.51)

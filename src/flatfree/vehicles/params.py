@@ -375,11 +375,12 @@ def bundled_name(name: Any, kind: str = "vehicle") -> str | None:
     return _bundled_name(name, (_NAMES[kind],))
 
 
-def _resolve(name_or_path: str | Path, folder, kind: str):
+def _resolve(name_or_path: str | Path, folder, kind: str, base: Path | None = None):
     """The file of ``name_or_path``: a path when it names an existing file or looks like one
     (:func:`flatfree._names.looks_like_path`: a missing one gives the reader's "file not
-    found"), else a bundled name (:func:`bundled_name`)."""
-    p = Path(name_or_path)
+    found"), else a bundled name (:func:`bundled_name`). A relative path is taken in the folder
+    ``base`` (None: the current directory)."""
+    p = Path(name_or_path) if base is None else base / name_or_path
     if p.is_file() or looks_like_path(str(name_or_path)):
         return p
     name = bundled_name(name_or_path, kind)
@@ -436,20 +437,39 @@ def _require(values: dict, cls, where: str, skip: tuple[str, ...]) -> None:
 
 def load_tire(name_or_path: str | Path) -> TireParams:
     """Load a tyre coefficient set: a bundled name (see :func:`tire_names`) or a TOML path."""
-    path = _resolve(name_or_path, _DATA / "tires", "tire")
+    return _load_tire(name_or_path)
+
+
+def _load_tire(name_or_path: str | Path, base: Path | None = None) -> TireParams:
+    """:func:`load_tire`, a relative path taken in the folder ``base`` (None: the current
+    directory)."""
+    path = _resolve(name_or_path, _DATA / "tires", "tire", base)
     doc = _read_toml(path, f"tire {name_or_path}")
     where = f"tire file {path}"
     coeffs = _values(doc.get("coefficients", {}), TireParams, where)
     _require(coeffs, TireParams, where, skip=("name", "cornering_law"))
-    return TireParams(
-        name=str(doc.get("name", Path(str(path)).stem)),
-        cornering_law=str(doc.get("cornering_law", "mf52")),
-        **coeffs,
-    )
+    try:
+        return TireParams(
+            name=str(doc.get("name", Path(str(path)).stem)),
+            cornering_law=str(doc.get("cornering_law", "mf52")),
+            **coeffs,
+        )
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
+#: The top-level keys of a vehicle file, all required.
+_VEHICLE_KEYS = ("name", "drive", "tire_front", "tire_rear", "params")
+#: The keys of a vehicle file's tyre table ``{set = ..., source = ..., <coefficient> = ...}``.
+_TIRE_ENTRY_KEYS = ("set", "source", *(f.name for f in dataclasses.fields(TireParams)))
 
 
 def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
     """Load a vehicle preset: a bundled name (see :func:`vehicle_names`) or a TOML path.
+
+    A file holds the keys ``name``, ``drive``, ``tire_front``, ``tire_rear`` and the table
+    ``[params]``, and nothing else. A tyre is a bundled set name or a TOML path, relative to the
+    vehicle file's folder (see :func:`_tire_from_doc`). A ``ValueError`` from a file names it.
 
     ``overrides`` replace parameters after loading (validated like the rest), e.g.
     ``load_vehicle("peugeot406", mass=1360.0)``.
@@ -457,18 +477,26 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
     path = vehicle_file(name_or_path)
     doc = _read_toml(path, f"vehicle {name_or_path}")
     where = f"vehicle file {path}"
-    for key in ("name", "drive", "tire_front", "tire_rear", "params"):
+    unknown = [key for key in doc if key not in _VEHICLE_KEYS]
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; valid: "
+                         f"{', '.join(_VEHICLE_KEYS)}")
+    for key in _VEHICLE_KEYS:
         if key not in doc:
             raise ValueError(f"{where}: missing key {key!r}")
     values = _values(doc["params"], VehicleParams, where)
     _require(values, VehicleParams, where, skip=("name", "drive", "tire_front", "tire_rear"))
-    params = VehicleParams(
-        name=str(doc["name"]),
-        drive=str(doc["drive"]),
-        tire_front=_tire_from_doc(doc["tire_front"], path),
-        tire_rear=_tire_from_doc(doc["tire_rear"], path),
-        **values,
-    )
+    base = path.parent if isinstance(path, Path) else None  # None: a preset in a zip, no paths
+    try:
+        params = VehicleParams(
+            name=str(doc["name"]),
+            drive=str(doc["drive"]),
+            tire_front=_tire_from_doc(doc["tire_front"], base, "tire_front"),
+            tire_rear=_tire_from_doc(doc["tire_rear"], base, "tire_rear"),
+            **values,
+        )
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
     unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(VehicleParams)})
     if unknown:
         raise ValueError(f"vehicle overrides {unknown}: not parameters of a vehicle; valid: "
@@ -476,13 +504,21 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
     return dataclasses.replace(params, **overrides) if overrides else params
 
 
-def _tire_from_doc(spec, vehicle_path) -> TireParams:
-    """A tyre named in a vehicle file: a bundled set name, or ``{set = ..., lambda_ky = ...}``."""
-    if isinstance(spec, str):
-        return load_tire(spec)
-    if isinstance(spec, dict) and "set" in spec:
-        base = load_tire(spec["set"])
-        extra = {k: v for k, v in spec.items() if k not in ("set", "source")}
-        return dataclasses.replace(base, **extra)
-    raise ValueError(f"vehicle file {vehicle_path}: tire entry {spec!r} is neither a set name "
-                     "nor a table with 'set'")
+def _tire_from_doc(spec, base: Path | None, side: str) -> TireParams:
+    """The tyre ``side`` (``tire_front`` or ``tire_rear``) of a vehicle file in the folder
+    ``base``: a bundled set name or a TOML path, a relative one taken in ``base`` (as a scenario
+    file's paths, :mod:`flatfree.scenario`), or ``{set = ..., lambda_ky = ..., source = ...}``
+    (a set and values that replace its own). A ``ValueError`` names ``side``."""
+    table = spec if isinstance(spec, dict) else {"set": spec}
+    unknown = [k for k in table if k not in _TIRE_ENTRY_KEYS]
+    if unknown:
+        raise ValueError(f"{side}: unknown key(s) {', '.join(map(repr, unknown))}; valid: "
+                         f"{', '.join(_TIRE_ENTRY_KEYS)}")
+    if not isinstance(table.get("set"), str):
+        raise ValueError(f"{side}: tire entry {spec!r} is neither a set name or path nor a "
+                         "table with one as 'set'")
+    extra = {k: v for k, v in table.items() if k not in ("set", "source")}
+    try:
+        return dataclasses.replace(_load_tire(table["set"], base), **extra)
+    except ValueError as exc:
+        raise ValueError(f"{side}: {exc}") from None
