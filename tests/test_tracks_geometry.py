@@ -382,3 +382,37 @@ def test_lvms_centerline_has_no_closure_artefact():
         assert stretch.min() > -3e-4 and stretch.max() < 1e-3
         if cut_off == 60.0:  # the LVMS default
             assert 0.0055 < k.max() < 0.0070
+
+
+def _out_and_back(spacing: float = 10.0, radius: float = 12.0):
+    """An open road digitised every ``spacing`` m: 300 m out along +x, a U-turn of ``radius``
+    (points about ``spacing`` apart), 300 m back; its end is 2 ``radius`` from its start."""
+    out = np.arange(0.0, 300.0 + spacing / 2, spacing)
+    a = np.linspace(0.0, math.pi, round(math.pi * radius / spacing) + 1)[1:-1]
+    x = np.concatenate([out, 300.0 + radius * np.sin(a), out[::-1]])
+    y = np.concatenate([np.zeros_like(out), radius - radius * np.cos(a),
+                        np.full_like(out, 2.0 * radius)])
+    return x, y
+
+
+def test_a_sparse_open_road_closed_by_the_detection_is_warned_about():
+    """An out-and-back road sampled every 10 m ends 24 m (2.4 spacings) from its start: the
+    detection (under 3 spacings) closes it with a 24 m segment no data has, a 664 m lap instead
+    of a 638 m road. The closing is kept (closed=None) but warned about, naming the path, the
+    gap and the way to keep it open; closed=False keeps it open, closed=True confirms it, both
+    silently, and a loop whose closing gap is one spacing closes without a warning."""
+    import warnings
+
+    x, y = _out_and_back()
+    msg = (r"^road \(survey\.csv\): closed into a loop because its end is 24 m from its start "
+           r"\(2\.4 median point spacings of 10 m\).*pass closed=False to keep the path open")
+    with pytest.warns(UserWarning, match=msg):
+        trk = T.Track.from_points(x, y, name="road", source="survey.csv")
+    assert trk.closed and trk.length == pytest.approx(664.6, abs=0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        road = T.Track.from_points(x, y, closed=False)
+        assert not road.closed and road.length == pytest.approx(600 + math.pi * 12, abs=1.0)
+        assert T.Track.from_points(x, y, closed=True).closed
+        th = np.linspace(0.0, 2 * math.pi, 40, endpoint=False)  # gap = one spacing
+        assert T.Track.from_points(50 * np.cos(th), 50 * np.sin(th)).closed

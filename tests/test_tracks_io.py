@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+import warnings
 from importlib import resources
 
 import numpy as np
@@ -73,7 +74,9 @@ def test_every_bundled_centerline_loads_and_matches_provenance(name):
     assert len(pts.x) == CENTER[name]["points"]  # nothing dropped
     # the raw polyline is what PROVENANCE measured (printed to 0.1 m)
     assert pts.polyline_length(True) == pytest.approx(CENTER[name]["length"], abs=0.051)
-    trk = T.load_track(name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # closed by the detection, across one spacing: silently
+        trk = T.load_track(name)
     assert trk.closed
     # issue 4: the length matches PROVENANCE.md within 1 %; it does within 1e-3 (measured
     # <= 1.7e-4: the smoothing's cut corners against the raw polyline)
@@ -84,7 +87,10 @@ def test_every_bundled_centerline_loads_and_matches_provenance(name):
 
 @pytest.mark.parametrize("name", sorted(RACELINE))
 def test_every_bundled_raceline_loads_and_matches_provenance(name):
-    trk = T.load_track(name, raceline=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        trk = T.load_track(name, raceline=True)
+    assert trk.closed
     assert len(T.read_track_points(name, raceline=True).x) == RACELINE[name]["points"]
     assert trk.length == pytest.approx(RACELINE[name]["length"], rel=1e-3)  # measured 1.2e-4
     assert np.isnan(trk.w_left).all()  # a race line file has no widths: unknown, not invented
@@ -169,6 +175,39 @@ def test_unknown_name_lists_the_valid_ones():
         T.load_track("Nurburgring")
     with pytest.raises(ValueError, match="file not found"):
         T.load_track("/nonexistent/dir/track.csv")
+
+
+def test_a_race_line_is_bundled_only(tmp_path):
+    """raceline=True on a user's file used to return the file's centerline, renamed "...
+    raceline": there are bundled race lines only, so a file (or a path) is refused by name."""
+    f = tmp_path / "my.csv"
+    f.write_bytes((DATA / "tracks" / "Monza.csv").read_bytes())
+    names = "Budapest, Catalunya, IMS, Monza, Norisring, Spa"
+    for given in (f, str(f), tmp_path / "absent.csv"):
+        with pytest.raises(ValueError, match=rf"^'{re.escape(str(given))}': race lines are "
+                                             rf"bundled only \(for {names}\); read a file"):
+            T.load_track(given, raceline=True)
+    assert T.load_track(f).name == "my"  # the same file as a track
+    with pytest.raises(ValueError, match=rf"^unknown raceline 'lvms'; bundled names: {names}$"):
+        T.read_track_points("lvms", raceline=True)
+
+
+def test_a_sparse_open_road_is_not_closed_silently(tmp_path):
+    """An out-and-back road digitised every 10 m ends 24 m (2.4 spacings) from its start: the
+    detection closes it with a segment no data has (a 664 m lap for a 638 m road). Warned,
+    naming the file, the gap and closed=False, which keeps it open."""
+    out = np.arange(0.0, 301.0, 10.0)
+    a = np.linspace(0.0, np.pi, 5)[1:-1]
+    xy = np.concatenate([np.column_stack([out, 0.0 * out]),
+                         np.column_stack([300 + 12 * np.sin(a), 12 - 12 * np.cos(a)]),
+                         np.column_stack([out[::-1], 0.0 * out + 24.0])])
+    f = _write(tmp_path, ["x,y", *(f"{float(p):.6f},{float(q):.6f}" for p, q in xy)], "road.csv")
+    with pytest.warns(UserWarning, match=rf"^road \({re.escape(str(f))}\): closed into a loop "
+                                         r"because its end is 24 m from its start.*closed=False"):
+        assert T.load_track(f).closed
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert not T.load_track(f, closed=False).closed
 
 
 def test_plain_xy_files_with_and_without_header(tmp_path):
@@ -265,6 +304,32 @@ def test_comment_and_blank_lines_keep_line_numbers(tmp_path):
         T.load_track(_write(tmp_path, lines))
 
 
+@pytest.mark.parametrize("header", ["x(m),y(m)", "x [m], y [m]", "# x (m),y[m]", "X_m,Y_m",
+                                    "# x_m,y_m"])
+def test_a_header_may_give_the_si_unit(tmp_path, header):
+    th = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    f = _write(tmp_path, [header, *(f"{30 * np.cos(t):.9f},{30 * np.sin(t):.9f}" for t in th)])
+    assert T.load_track(f).length == pytest.approx(2 * np.pi * 30, rel=1e-6)
+
+
+XY = [",".join(r.split(",")[:2]) for r in GOOD]
+
+
+@pytest.mark.parametrize(("lines", "pattern"), [
+    (["x(km),y(km)", *XY], (r"column 'x': unit 'km' is not accepted; the values must be in 'm' "
+                            r"\(header 'x\(km\)'; units are not converted\)")),
+    (["x (ft),y (ft)", *XY], r"column 'x': unit 'ft'"),
+    (["# x [m],y [mm]", *XY], r"column 'y': unit 'mm'"),
+    (["# x_m,y_m,w_tr_right (cm),w_tr_left_m", *GOOD], r"column 'w_tr_right': unit 'cm'"),
+])
+def test_a_header_unit_other_than_si_is_refused(tmp_path, lines, pattern):
+    """x(km) and x (ft) used to load as metres (the unit was stripped), x [m] was "missing
+    column(s) ['x', 'y']": no conversion, so any unit but the column's is an error."""
+    f = _write(tmp_path, lines)
+    with pytest.raises(ValueError, match=f"^{re.escape(str(f))}, line 1, {pattern}"):
+        T.load_track(f)
+
+
 def test_in_memory_points_are_checked_too():
     x = np.array([0.0, 1.0, 1.0, 2.0, 3.0])
     y = np.array([0.0, 0.0, 0.0, 1.0, 2.0])
@@ -309,6 +374,15 @@ def test_user_recording_loads_like_the_bundled_one(tmp_path):
     assert len(rec) == 40 and rec.bounds is None
     assert rec.t[0] == 0.0 and rec.t0_epoch == pytest.approx(100.0)
     np.testing.assert_allclose(rec["vx"], 25.0)
+    # the documented units only (PROVENANCE.md), never converted: vx in km/h is refused
+    for old, new, msg in (("vx(m/s)", "vx(km/h)", "column 'vx': unit 'km/h'"),
+                          ("phi(rad)", "phi [deg]", "column 'phi': unit 'deg'"),
+                          ("time(s)", "time(ms)", "column 'time': unit 'ms'")):
+        f = _write(tmp_path, [REC_HEADER.replace(old, new), *_rec_rows(40)], "units.csv")
+        with pytest.raises(ValueError, match=f"^{re.escape(f'{f}, line 1, {msg}')}"):
+            T.load_recording(f)
+        with pytest.raises(ValueError, match=f"^{re.escape(f'{f}, line 1, {msg}')}"):
+            T.load_track(f)  # a recording's path: the same reader
 
 
 def test_free_text_comments_are_not_headers(tmp_path):

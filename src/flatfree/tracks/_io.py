@@ -8,6 +8,12 @@ line that is not numeric):
 - plain ``x, y`` (a headerless file with two columns, e.g. the LVMS bound files);
 - the recording format of ``data/recordings`` (``time(s), x(m), y(m), vx(m/s), ...``).
 
+A header may write a column's unit after its name, in parentheses or brackets (``x(m)``,
+``x [m]``; TUMFTM's ``x_m`` suffix too). Values are never converted: a column the loaders read
+must be in its unit of :data:`UNITS` (SI: m for x, y and the widths; the recording's columns as
+documented in data/recordings/PROVENANCE.md), and any other unit (``x(km)``, ``y [ft]``) is an
+error. Columns no loader reads keep whatever unit their header gives.
+
 Every defect raises ``ValueError`` naming the file and the line number (1-based, as an editor
 shows it); no row is ever skipped except blank lines and ``#`` comment lines.
 
@@ -34,6 +40,7 @@ from flatfree._names import looks_like_path
 __all__ = [
     "MIN_POINTS",
     "MIN_SEGMENT_M",
+    "UNITS",
     "RawData",
     "bundled_name",
     "read_csv",
@@ -66,6 +73,16 @@ RECORDING_COLUMNS = (
 )
 RECORDING_REQUIRED = ("time", "x", "y", "vx", "phi", "delta")
 TUM_COLUMNS = ("x", "y", "w_tr_right", "w_tr_left")
+#: The unit(s) a header may give each column the loaders read, as written in the files: the SI
+#: unit, except the recording's wheel speeds (km/h, filed as ``kmph``) and pedal commands (%,
+#: kPa), which :class:`~flatfree.tracks.recording.Recording` keeps as filed [rec]. No conversion.
+UNITS = {
+    **dict.fromkeys(TUM_COLUMNS, ("m",)),
+    "time": ("s",), "vx": ("m/s",), "vy": ("m/s",), "phi": ("rad",), "delta": ("rad",),
+    "omega": ("rad/s",), "ax": ("m/s^2", "m/s2", "m/s²"), "deltadelta": ("rad/s",),
+    **dict.fromkeys(("wheel_fl", "wheel_fr", "wheel_rl", "wheel_rr"), ("kmph", "km/h")),
+    "roll": ("rad",), "throttle_ped_cmd": ("%",), "brake_ped_cmd": ("kPa",),
+}
 
 
 def _csv_names(folder) -> list[str]:
@@ -116,10 +133,13 @@ def resolve(name_or_path: str | Path, kind: str) -> tuple[Any, str]:
 
     ``kind`` is ``"track"``, ``"raceline"`` or ``"recording"``. A string that names an existing
     file is read as a path; a bundled name (:func:`bundled_name`) wins otherwise. ``"LVMS"``
-    returns ``(None, "LVMS")`` (built from the bound files by the caller).
+    returns ``(None, "LVMS")`` (built from the bound files by the caller). Race lines are bundled
+    only: for a ``"raceline"``, a file or a path is an error.
     """
     p = Path(name_or_path)
     if p.is_file():
+        if kind == "raceline":
+            raise _not_bundled(name_or_path)
         return p, str(p)
     name = bundled_name(name_or_path, kind)
     if name is not None:
@@ -130,12 +150,23 @@ def resolve(name_or_path: str | Path, kind: str) -> tuple[Any, str]:
         return folder / f"{name}.csv", f"{name}.csv"
     key = str(name_or_path).strip()
     if looks_like_path(key):
+        if kind == "raceline":
+            raise _not_bundled(name_or_path)
         raise ValueError(f"{kind} file not found: {str(name_or_path)!r}")
     names = _NAMES[kind]()
     extra = f"; or a recording: {', '.join(recording_names())}" if kind == "track" else ""
+    path = "" if kind == "raceline" else "; or give the path of a CSV file"
     raise ValueError(
-        f"unknown {kind} {str(name_or_path)!r}; bundled names: {', '.join(names)}{extra}; "
-        "or give the path of a CSV file"
+        f"unknown {kind} {str(name_or_path)!r}; bundled names: {', '.join(names)}{extra}{path}"
+    )
+
+
+def _not_bundled(name_or_path) -> ValueError:
+    """The error for a file given as a race line: there are bundled race lines only."""
+    return ValueError(
+        f"{str(name_or_path)!r}: race lines are bundled only (for "
+        f"{', '.join(raceline_names())}); read a file of your own as a track, without "
+        "raceline=True"
     )
 
 
@@ -181,15 +212,41 @@ class RawData:
         return f"line {int(self.lines[i])}"
 
 
-_UNIT = re.compile(r"\s*\(.*?\)\s*$")
+#: A unit after a column name: ``time(s)``, ``x [m]``.
+_UNIT = re.compile(r"\s*(?:\((?P<paren>[^()]*)\)|\[(?P<bracket>[^\[\]]*)\])\s*$")
 
 
-def _canonical(name: str) -> str:
-    """``'x_m'`` -> ``'x'``, ``'time(s)'`` -> ``'time'``, ``'w_tr_right_m'`` -> ``'w_tr_right'``."""
-    n = _UNIT.sub("", name.strip().lower())
+def _name_and_unit(cell: str) -> tuple[str, str | None]:
+    """``'x_m'`` -> ``('x', None)``, ``'time(s)'`` -> ``('time', 's')``, ``'x [m]'`` ->
+    ``('x', 'm')``, ``'w_tr_right_m'`` -> ``('w_tr_right', None)``: the canonical (lower case)
+    name and the unit written in parentheses or brackets (blanks removed), if any."""
+    n = cell.strip()
+    unit = None
+    m = _UNIT.search(n)
+    if m is not None:
+        unit = "".join((m["paren"] if m["paren"] is not None else m["bracket"]).split())
+        n = n[: m.start()]
+    n = n.lower()
     if n.endswith("_m") and n not in ("_m",):
         n = n[:-2]
-    return n
+    return n, unit
+
+
+def _canonical(cell: str) -> str:
+    """The canonical column name of a header cell (:func:`_name_and_unit`)."""
+    return _name_and_unit(cell)[0]
+
+
+def _check_units(cells: tuple[str, ...], source: str, line: int) -> None:
+    """Refuse a unit in the header that is not the column's unit of :data:`UNITS`."""
+    for cell in cells:
+        name, unit = _name_and_unit(cell)
+        if unit is not None and name in UNITS and unit not in UNITS[name]:
+            want = " or ".join(repr(u) for u in UNITS[name])
+            raise ValueError(
+                f"{source}, line {line}, column {name!r}: unit {unit!r} is not accepted; the "
+                f"values must be in {want} (header {cell.strip()!r}; units are not converted)"
+            )
 
 
 def _is_number(cell: str) -> bool:
@@ -255,7 +312,7 @@ def read_csv(file, source: str) -> RawData:
     except UnicodeDecodeError as exc:
         raise ValueError(f"{source}: not a UTF-8 text file ({exc})") from None
 
-    header: tuple[str, ...] | None = None
+    header: tuple[str, ...] | None = None  # the header's cells, as written
     header_line = 0
     comments: list[tuple[int, tuple[str, ...]]] = []  # comment lines before the first data row
     rows: list[list[str]] = []
@@ -268,11 +325,11 @@ def read_csv(file, source: str) -> RawData:
             if header is None and not rows:
                 body = line.lstrip("#").strip()
                 if body:
-                    comments.append((lineno, tuple(_canonical(c) for c in body.split(","))))
+                    comments.append((lineno, tuple(body.split(","))))
             continue
         cells = [c.strip() for c in line.split(",")]
         if header is None and not rows and not all(_is_number(c) for c in cells):
-            header = tuple(_canonical(c) for c in cells)  # a plain (uncommented) header line
+            header = tuple(cells)  # a plain (uncommented) header line
             header_line = lineno
             continue
         rows.append(cells)
@@ -283,12 +340,15 @@ def read_csv(file, source: str) -> RawData:
         # a commented header (TUMFTM, recordings): the last comment line before the data with
         # as many comma-separated names as the first data row has cells, or naming x and y;
         # free text is skipped
-        for ln, names in reversed(comments):
-            if len(names) == len(rows[0]) or {"x", "y"} <= set(names):
-                header, header_line = names, ln
+        for ln, cells in reversed(comments):
+            if len(cells) == len(rows[0]) or {"x", "y"} <= {_canonical(c) for c in cells}:
+                header, header_line = cells, ln
                 break
     ncol = len(header) if header is not None else len(rows[0])
-    fmt, columns = _detect_format(header, ncol, source, header_line or lines[0])
+    if header is not None:
+        _check_units(header, source, header_line)
+    names = None if header is None else tuple(_canonical(c) for c in header)
+    fmt, columns = _detect_format(names, ncol, source, header_line or lines[0])
     for cells, ln in zip(rows, lines, strict=True):
         if len(cells) != ncol:
             raise ValueError(

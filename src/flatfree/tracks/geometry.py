@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import enum
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -80,6 +81,14 @@ DEFAULT_SMOOTHING_LENGTH = 20.0
 #: Order of the zero-phase low-pass H(f) = 1 / (1 + (f lambda_c)^(2n)), n = 4 (Butterworth magnitude
 #: shape squared); a circle of radius R passes with gain 1 - (lambda_c / 2 pi R)^8.
 _FILTER_ORDER = 4
+#: ``closed=None`` closes a path whose end is less than this many median point spacings from its
+#: start (the TUMFTM files end one spacing before their first point, PROVENANCE.md).
+_CLOSE_GAP_SPACINGS = 3.0
+#: ... and warns when that closing segment is longer than this many median spacings: it then
+#: bridges a gap that no segment of the data has, as an open road digitised sparsely (an
+#: out-and-back) has between its ends. The bundled closed files' gap is one spacing (ratio
+#: 1.0000-1.0002 on every TUMFTM centerline and race line); 1.5 leaves room for uneven spacing.
+_CLOSE_WARN_SPACINGS = 1.5
 
 _S, _X, _Y, _TX, _TY, _PSI, _K, _DK, _WL, _WR = (int(c) for c in GC)
 _TWO_PI = 2.0 * math.pi
@@ -665,7 +674,10 @@ class Track:
         closed : bool, optional
             Loop or open path. ``None`` (default): closed when the last point repeats the first
             (that repeat is then dropped, it only marks the closure) or when the end-to-start gap
-            is under 3 median spacings (the TUMFTM files, PROVENANCE.md); open otherwise.
+            is under 3 median spacings (the TUMFTM files, PROVENANCE.md); open otherwise. A
+            path closed by that rule across a gap of more than 1.5 median spacings gets a
+            ``UserWarning`` (it may be an open road whose ends lie close): pass
+            ``closed=False`` to keep it open, ``closed=True`` to confirm the loop.
         ds : float
             Arc-length step of the resampled nodes [m]; the actual step is L / round(L / ds).
         smoothing_length : float
@@ -716,9 +728,18 @@ class Track:
                 )
             closed = True
         if closed is None:
-            spacing = np.hypot(np.diff(x), np.diff(y))
+            spacing = float(np.median(np.hypot(np.diff(x), np.diff(y))))
             gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
-            closed = gap < 3.0 * float(np.median(spacing))
+            closed = gap < _CLOSE_GAP_SPACINGS * spacing
+            if closed and gap > _CLOSE_WARN_SPACINGS * spacing:
+                what = f"{name} ({source})" if name and source and name != source else src
+                warnings.warn(
+                    f"{what}: closed into a loop because its end is {gap:.3g} m from its start "
+                    f"({gap / spacing:.2g} median point spacings of {spacing:.3g} m), across a "
+                    "closing segment that is not in the data; pass closed=False to keep the path "
+                    "open, closed=True to confirm the loop",
+                    UserWarning, stacklevel=2,
+                )
         if closed:
             gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
             if gap < MIN_SEGMENT_M:

@@ -233,7 +233,8 @@ def read_track_points(name_or_path: str | Path, *, raceline: bool = False) -> Tr
         ``"Monza"``, ``"spa"``, ``"LVMS"``, a recording name (its driven path, see
         :func:`load_track`), or the path of a TUMFTM, x,y or recording CSV file.
     raceline : bool
-        Read the bundled race line instead of the centerline.
+        Read the bundled race line instead of the centerline (bundled tracks only: a file, or a
+        name without a race line, is an error).
 
     Raises
     ------
@@ -273,9 +274,14 @@ def load_track(
         the TUMFTM format (x_m, y_m, w_tr_right_m, w_tr_left_m), plain x,y, or the recording
         format. A user's file goes through exactly the same steps as a bundled one.
     raceline : bool
-        Load the TUMFTM minimum-curvature race line (no widths) instead of the centerline.
+        Load the TUMFTM minimum-curvature race line (no widths) instead of the centerline; there
+        are bundled race lines only (``raceline_names()``): a file is an error (load a race
+        line of your own as a track).
     closed : bool, optional
-        Override the loop detection (see :meth:`Track.from_points`).
+        Loop or open path; ``None`` (default) detects it (:meth:`Track.from_points`: a file's
+        closing repeat of its first point, or an end within 3 point spacings of the start,
+        with a ``UserWarning`` when that gap exceeds 1.5 spacings); ``False`` keeps an open
+        road whose ends lie close open.
     ds : float
         Resampling step [m] (see :meth:`Track.from_points`).
     smoothing_length : float, optional
