@@ -6,8 +6,10 @@ Definitions (the same for every controller, so that comparisons are fair):
   path, left positive (signal ``lateral_error``).
 - **yaw error** [rad, reported in deg]: the vehicle's yaw minus the reference yaw, wrapped to
   (-pi, pi] (signal ``yaw_error``). The reference yaw is the recorded yaw for a recorded
-  reference; for a track reference it is the path heading corrected by the reference sideslip
-  angle of the 3DoF model along the path, beta_ref = atan(Vy_ref / Vx_ref): comparing with the
+  reference (the recording's own heading column, unwrapped; the LVMS recording's follows its
+  course to 0.03 deg median, so the recorded car's sideslip is not in it); for a track
+  reference it is the path heading corrected by the reference sideslip angle of the 3DoF
+  model along the path, beta_ref = atan(Vy_ref / Vx_ref): comparing with the
   bare path heading would count the car's own sideslip as error. "Along the path" is taken
   exactly: the linear-tyre 3DoF model whose CoG follows the path at the reference speed
   (:func:`flatfree.tracks.reference_states_3dof`, ``method="path"``; its yaw rate is

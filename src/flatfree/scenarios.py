@@ -290,8 +290,6 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         vehicle_file(vehicle)
     controller, settings = _BASE[base]
     car = "peugeot406" if vehicle is None else vehicle
-    if vehicle is not None:
-        warn_if_untuned(vehicle, controller)
     if controller == "mfc-natural":
         settings = natural_settings(car, imu=imu)
     # the car as the scenario holds it (a bundled one in its own spelling)
@@ -301,11 +299,14 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
                  "(Figure 2)")
     if imu:
         what += " (lateral F from the inertial unit, beyond the paper)"
-    return Scenario(
+    sc = Scenario(
         name=name, description=what, vehicle=car, plant="10dof",
         controller=controller, controller_settings=dict(settings),
         reference=ReferenceSpec(track=track or DEFAULT_TRACK), timing=timing,
         sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
+    if vehicle is not None:  # after the scenario's checks of the car
+        warn_if_untuned(vehicle, controller)
+    return sc
 
 
 def paper_scenarios(*, noise: bool = True, track: str | None = None) -> dict[str, Scenario]:

@@ -1053,7 +1053,13 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     signals = {m.name.lower(): log[:, m] for m in LOG if m is not LOG.T}
     # errors against the reference by arc length (metrics.py definitions)
     s_ref = ref["s_path"]
-    psi_full = ref["psi"] - prep.beta_ref  # heading = path course - sideslip (ISO 8855)
+    if "psi_recorded" in ref.extras:
+        # a recording: the recorded yaw (issue 7's definition; the path's tangent is the course
+        # error's reference below). The LVMS recording's phi follows its course, atan2(dy, dx),
+        # to 0.03 deg median (its PROVENANCE.md): its car's sideslip is not in it
+        psi_full = ref.extras["psi_recorded"]
+    else:
+        psi_full = ref["psi"] - prep.beta_ref  # heading = path course - sideslip (ISO 8855)
     s_log = np.clip(log[:, LOG.S], s_ref[0], s_ref[-1])
     signals["lateral_error"] = log[:, LOG.E_Y] - np.interp(s_log, s_ref, ref["e_y_ref"])
     signals["yaw_error"] = wrap_angle(log[:, LOG.PSI] - np.interp(s_log, s_ref, psi_full))
