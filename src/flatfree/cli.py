@@ -302,7 +302,8 @@ controller = "mfc-natural"  # "flatness", "mfc-flat", "mfc-natural"
 noise = true                # false: every sensor noise-free (rates and delays kept)
 seed = 0                    # seed of the sensor noise
 
-# [vehicle_overrides]       # VehicleParams fields, SI, e.g.
+# [vehicle_overrides]       # VehicleParams fields, SI: the car itself, the plant and the
+#                           # controllers' models alike (no mismatch: cf_scale, cr_scale), e.g.
 # mass = 1600.0
 
 [controller_settings]       # the chosen controller's own settings; empty: its defaults
@@ -337,7 +338,8 @@ control_dt_s = 0.001        # controller period (a whole multiple of plant_dt_s)
                             # it with `flatfree run --control-period S`, which rescales them
 log_dt_s = 0.01             # logging period (a whole multiple of plant_dt_s)
 startup_s = 1.0
-# duration_s = 60.0         # default: the reference's duration
+# duration_s = 60.0         # default: until the path's end (at most 1.5 x the reference's
+                            # duration + 5 s; Timing)
 
 # one table per measured channel (x, y, psi, vx, vy, r, ax, ay): noise sigma, bias, rate,
 # delay; a channel without a table is exact

@@ -14,7 +14,7 @@ TOML layout (every key optional except where a section says so; units in the key
     noise = true                    # false: every sensor noise-free (rates, delays kept)
     seed = 0
 
-    [vehicle_overrides]             # VehicleParams fields, SI
+    [vehicle_overrides]             # VehicleParams fields, SI (the car's own: no mismatch)
     mass = 1600.0
 
     [reference]
@@ -37,7 +37,7 @@ TOML layout (every key optional except where a section says so; units in the key
     control_dt_s = 0.001
     log_dt_s = 0.01
     startup_s = 1.0
-    # duration_s = 60.0             # default: the reference's duration
+    # duration_s = 60.0             # default: until the path's end (Timing)
 
     [sensors.vx]                    # one table per measured channel (SENSOR_CHANNELS)
     noise_std = 0.05
@@ -391,6 +391,11 @@ class Scenario:
     spelling (module docstring, "File paths"); a sensor table and a ``nan_measurement`` fault
     name a measured channel (:data:`flatfree.sensors.SENSOR_CHANNELS`); a name ending in
     ``-noise-free`` refuses ``noise = true``. ``ValueError`` naming the field and the value.
+
+    ``vehicle_overrides`` change the car itself: the plant and every model built from it (the
+    flatness controller's design model, the flat-output MFC's m, Iz, lf, the yaw error's
+    reference sideslip), so they make no plant/model mismatch; the flatness controller's
+    ``cf_scale`` / ``cr_scale`` settings do (``paper-mismatch``).
     """
 
     name: str = "custom"

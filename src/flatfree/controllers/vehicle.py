@@ -960,13 +960,17 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
     """
     y2r = cref[2]
     if coef.shape[0] > 10 and coef[7] != 0.0:
-        # outer path-following correction of the y2 reference (module docstring)
+        # outer path-following correction of the y2 reference (module docstring), on the
+        # deviation from the reference line (the path offset by its e_y reference, e.g.
+        # reference.lateral_offset_m; it was the path's own, so the flat-output designs drove
+        # the path instead of the offset line)
+        e_line = meas[6] - cref[5]
         zeta = coef[9]
         if coef[11] != 0.0:  # integral action: integrate e_y / v, triple pole (zeta unused)
             zeta = 0.0
-            if math.isfinite(meas[6]) and math.isfinite(meas[3]):
-                coef[13] += coef[12] * meas[6] / max(meas[3], _OUTER_V_MIN)
-        dr = path_correction(meas[3], meas[4], meas[6], meas[7], coef[8], zeta, coef[13])
+            if math.isfinite(e_line) and math.isfinite(meas[3]):
+                coef[13] += coef[12] * e_line / max(meas[3], _OUTER_V_MIN)
+        dr = path_correction(meas[3], meas[4], e_line, meas[7], coef[8], zeta, coef[13])
         if coef[10] != 0.0:
             dr += cref[10]
         if math.isfinite(dr) and math.isfinite(cref[9]):
