@@ -134,7 +134,8 @@ def test_delay_and_rate_are_rounded_to_the_nearest_whole_period():
              **{k: SensorChannel(rate_hz=f) for k, (f, _) in rates.items()}}
     names = tuple(chans)
     n = 30
-    cs = SensorSuite(chans).compile(names, 1e-3, n, seed=0)
+    with pytest.warns(UserWarning, match="rounded to whole control periods"):  # each said
+        cs = SensorSuite(chans).compile(names, 1e-3, n, seed=0)
     k = np.arange(n)
     out = _measure(cs, np.tile(k[:, None], (1, len(names))).astype(float))
     for i, name in enumerate(names):
@@ -372,3 +373,21 @@ def test_channels_appended_in_a_new_block_keep_the_earlier_noise():
     assert not np.array_equal(one_block.noise[:, :6], old.noise)
     with pytest.raises(ValueError, match=re.escape("blocks = (6, 1): sizes >= 0 summing to 8")):
         suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7, blocks=(6, 1))
+
+
+def test_a_delay_or_rate_the_control_clock_cannot_keep_is_said():
+    """Delays and sample periods are whole control periods (module docstring): a setting that
+    rounds to another value is said (a reviewer's 4 ms and 5 ms delays at 100 Hz both gave
+    the no-delay run silently); one that is a whole number of periods is not."""
+    import warnings
+
+    from flatfree.sensors import SENSOR_CHANNELS, SensorChannel, SensorSuite
+
+    suite = SensorSuite({"y": SensorChannel(delay_s=0.004), "vx": SensorChannel(rate_hz=400.0)})
+    with pytest.warns(UserWarning, match=r"^sensors at a control period of 0.01 s: y.delay_s = "
+                                         r"0.004 s -> 0 s; vx.rate_hz = 400 Hz -> 100 Hz"):
+        suite.compile(SENSOR_CHANNELS, 0.01, 10, 0)
+    whole = SensorSuite({"y": SensorChannel(delay_s=0.004), "vx": SensorChannel(rate_hz=250.0)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        whole.compile(SENSOR_CHANNELS, 0.002, 10, 0)  # 2 periods each

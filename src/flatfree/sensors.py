@@ -40,6 +40,7 @@ Units of ``noise_std`` and ``bias`` are those of the channel's signal (SI).
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -174,6 +175,7 @@ class SensorSuite:
         n = len(names)
         table = np.zeros((n, 4))
         chans = [self.channels.get(name, SensorChannel()) for name in names]
+        rounded = []
         for i, ch in enumerate(chans):
             table[i, _NOISE] = 1.0
             table[i, _BIAS] = ch.bias
@@ -181,6 +183,18 @@ class SensorSuite:
                 1 if ch.rate_hz is None else max(1, round(1.0 / (ch.rate_hz * dt_control)))
             )
             table[i, _DELAY] = round(ch.delay_s / dt_control)
+            # the controller's clock is all a channel has: say where it moves a setting
+            if abs(table[i, _DELAY] * dt_control - ch.delay_s) > 1e-9 * dt_control:
+                rounded.append(f"{names[i]}.delay_s = {ch.delay_s:g} s -> "
+                               f"{table[i, _DELAY] * dt_control:g} s")
+            if ch.rate_hz is not None and abs(
+                    table[i, _PERIOD] * dt_control * ch.rate_hz - 1.0) > 1e-9:
+                rounded.append(f"{names[i]}.rate_hz = {ch.rate_hz:g} Hz -> "
+                               f"{1.0 / (table[i, _PERIOD] * dt_control):g} Hz")
+        if rounded:
+            warnings.warn(f"sensors at a control period of {dt_control:g} s: "
+                          f"{'; '.join(rounded)} (rounded to whole control periods)",
+                          UserWarning, stacklevel=2)
         if blocks is None:
             blocks = (n,)
         if sum(blocks) != n or any(int(b) != b or b < 0 for b in blocks):
