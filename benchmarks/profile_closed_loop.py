@@ -18,6 +18,9 @@ Run as a script (``python benchmarks/profile_closed_loop.py [scenario] [track]``
    - the controller: :func:`~flatfree.controllers.vehicle.vehicle_step` on the recorded
      measurements, references and applied inputs (fresh controller state).
 
+4. ``simulate()`` end to end against the loop, and the preparation piece by piece: the
+   reference, the flying-lap start speed, the whole ``prepare``, the sensor noise.
+
 The parts do not add up to the whole: the loop is one dependency chain per step (plant ->
 projection -> controller -> actuators -> plant), and the processor overlaps the work that is
 off that chain (logging, the wheel diagnostics, the second projection's bookkeeping) with it.
@@ -156,6 +159,42 @@ def main() -> None:
     rest = whole - t_plant - t_proj - t_ctrl
     print(f"  the rest (whole - the three)       {rest * 1e9:7.1f} ns/step (sensors, second "
           "projection, references, actuators, logging, loop; minus overlap)")
+
+    # 4) simulate() end to end: what a run costs besides the loop, each piece timed alone
+    _end_to_end(sc, tr)
+
+
+def _end_to_end(sc, tr) -> None:
+    """simulate()'s wall time beside the loop's, and its preparation piece by piece (best of
+    5 each): the reference, the flying-lap start speed, the whole prepare, the sensor noise
+    drawn for the allotted duration."""
+    from flatfree.sensors import SENSOR_CHANNELS
+    from flatfree.simulation import _SENSOR_BLOCKS, flying_lap_speed, reference_of
+
+    prep = prepare(sc)
+    ref = prep.reference
+    n_ctrl = prep.n_steps // sc.timing.control_every + 1
+
+    def best(fn) -> float:
+        out = math.inf
+        for _ in range(5):
+            t0 = time.perf_counter()
+            fn()
+            out = min(out, time.perf_counter() - t0)
+        return out
+
+    total = best(lambda: simulate(sc))
+    loop = tr.meta["wall_time_s"]
+    print(f"simulate() end to end (best of 5)     {total * 1e3:7.1f} ms "
+          f"({tr.duration / total:.0f}x real time; the loop {loop * 1e3:.1f} ms of it)")
+    print(f"  prepare                            {best(lambda: prepare(sc)) * 1e3:7.1f} ms")
+    print(f"    reference (track, profile)       {best(lambda: reference_of(sc)) * 1e3:7.1f} ms")
+    fly = best(lambda: flying_lap_speed(ref["s_path"], ref["vx"], prep.vehicle, closed=True))
+    print(f"    flying-lap start speed           {fly * 1e3:7.1f} ms")
+    noise = best(lambda: sc.effective_sensors.compile(
+        SENSOR_CHANNELS, sc.timing.control_dt_s, n_ctrl, sc.seed, blocks=_SENSOR_BLOCKS))
+    print(f"  sensor noise                       {noise * 1e3:7.1f} ms "
+          f"({n_ctrl} control steps x {len(SENSOR_CHANNELS)} channels)")
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ from flatfree.vehicles import load_vehicle
 ACT = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
 
 
-def test_counts_keep_their_durations_nearest_whole_at_least_two_zero_stays_off():
+def test_counts_keep_their_durations_nearest_whole_at_least_the_minimum_zero_stays_off():
     s = MfcNaturalSettings(window_lat=100, window_lon=50, denoise_lat=30, denoise_yaw=3)
     at100 = s.for_period(0.01)
     assert sample_counts(at100) == {"window_lon": 5, "window_lat": 10, "denoise_lon": 0,
@@ -44,6 +44,11 @@ def test_counts_keep_their_durations_nearest_whole_at_least_two_zero_stays_off()
     assert dataclasses.replace(at100, **sample_counts(s)) == s
     assert s.for_period(TUNED_PERIOD_S) == s
     assert MfcFlatSettings().for_period(0.002).window_lat == 25
+    # at least the smallest window each class accepts (the natural-output iPD's is 3 samples):
+    # at 20 Hz 100 x 1 ms is 2 samples, which MfcNaturalSettings refused, naming a value the
+    # user never wrote
+    assert sample_counts(MfcNaturalSettings().for_period(0.05))["window_lat"] == 3
+    assert MfcFlatSettings().for_period(0.1).window_lat == 2
     assert rescale_sample_counts(FlatnessSettings(), 0.01) == FlatnessSettings()  # no counts
 
 
@@ -80,6 +85,9 @@ def test_the_1_khz_windows_at_100_hz_are_warned_about_naming_the_windows_and_the
                                     settings=MfcNaturalSettings(window_lat=300)),
     # within 1.5x of the tuned durations (a 1.2 ms period keeps 100 samples: 0.12 s)
     lambda: NaturalOutputController(dt=0.0012, actuators=ACT),
+    # counts the user chose for this period (not the defaults): the user's
+    lambda: NaturalOutputController(dt=0.002, actuators=ACT, settings=MfcNaturalSettings(
+        window_lat=150, window_lon=150)),
 ])
 def test_rescaled_or_tuned_settings_are_not_warned_about(make):
     assert _warnings(make) == []
@@ -129,3 +137,13 @@ def test_cli_control_period_option_runs_the_rescaled_controller(tmp_path):
     # a --set after it wins, as over every option
     assert run("--set", "controller_settings.window_lat=12")["controller_settings"][
         "window_lat"] == 12
+
+
+def test_a_wrong_controller_is_refused_before_any_period_check():
+    """build_mfc names a controller it does not build, at any period (at 10 ms the period
+    check ran first and raised AttributeError on the flatness settings)."""
+    from flatfree.controllers.vehicle import build_mfc
+
+    for dt in (0.001, 0.01):
+        with pytest.raises(ValueError, match="^controller = 'flatness': expected"):
+            build_mfc("flatness", FlatnessSettings(), dt=dt, actuators=ACT)

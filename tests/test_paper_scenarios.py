@@ -334,9 +334,7 @@ def test_named_scenario_takes_another_car_with_its_tuning():
     with pytest.raises(ValueError, match=r"^vehicle = 3: expected a preset name or a file "
                                          r"path$"):
         named_scenario("paper", vehicle=3)
-    with pytest.warns(UserWarning, match="alpha_lat"):  # a file: its tuning is not known
-        assert named_scenario("paper", vehicle=Path("my_car.toml")).vehicle == Path(
-            "my_car.toml")
+    assert named_scenario("paper", vehicle=Path("my_car.toml")).vehicle == Path("my_car.toml")
 
 
 @pytest.mark.parametrize(

@@ -77,12 +77,18 @@ def test_whole_keeps_large_integers_exact_and_refuses_what_float_cannot_hold():
 
 
 def test_whole_strict_takes_integers_only():
-    """strict (the estimators' counts and orders): an integral float is refused too, with the
-    same message; integers, NumPy's and beyond float's range too, pass as ints."""
+    """strict (the estimators' counts and orders): an integral float is refused too, the
+    message naming the type (an integral 100.0 >= 2 was told "must be an integer >= 2");
+    integers, NumPy's and beyond float's range too, pass as ints."""
     from flatfree._validate import whole
 
     assert whole("n", 2**60 + 1, 0, strict=True) == 2**60 + 1
     assert type(whole("n", np.int64(7), 2, strict=True)) is int
-    for bad in (100.0, np.float64(3.0), True, np.True_, 1, 2.5, "3", math.nan, None):
-        with pytest.raises(ValueError, match=r"^n = .+ samples: must be an integer >= 2$"):
+    with pytest.raises(ValueError, match=r"^n = 1 samples: must be an integer >= 2$"):
+        whole("n", 1, 2, "samples", strict=True)
+    for bad, kind in ((100.0, "float"), (np.float64(3.0), "float64"), (True, "bool"),
+                      (np.True_, "bool"), (2.5, "float"), ("3", "str"), (math.nan, "float"),
+                      (None, "NoneType")):
+        with pytest.raises(ValueError, match=rf"^n = .+: must be an integer >= 2, given as an "
+                                             rf"int \(not {kind}\)$"):
             whole("n", bad, 2, "samples", strict=True)

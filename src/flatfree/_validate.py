@@ -115,7 +115,8 @@ def whole(name: str, value, lo: int, unit: str = "", *, strict: bool = False) ->
             raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")
         return int(value)
     if strict:
-        raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")
+        raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}, given as an "
+                         f"int (not {type(value).__name__})")
     v = as_real(value)
     if v is None or not math.isfinite(v) or v != int(v) or v < lo:
         raise ValueError(f"{_fmt(name, value, unit)}: must be an integer >= {lo}")

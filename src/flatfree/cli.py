@@ -513,15 +513,8 @@ def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
         raise _fail(f"unknown scenario {spec!r}: give a TOML file, or a named scenario: "
                     f"{', '.join(mod.SCENARIO_NAMES)}")
     if vehicle is not None and not spec.startswith("recorded"):  # the recorded: their own car
-        with warnings.catch_warnings():
-            # said by build_scenario for the run's controller (--controller may change it)
-            warnings.filterwarnings("ignore", message=_UNTUNED, category=UserWarning)
-            return _named(spec, vehicle=vehicle)
+        return _named(spec, vehicle=vehicle)
     return _named(spec)
-
-
-# the start of flatfree.scenarios.warn_if_untuned's message
-_UNTUNED = r"vehicle .*: the .* controller's settings were tuned on"
 
 
 def build_scenario(spec: str | None = None, *, controller: str | None = None,
@@ -577,8 +570,6 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             # a file's or a recorded scenario's car, with its tuning as below (the description
             # is the file's own); a named track scenario has it already (_load_base): no change
             changes["vehicle"] = vehicle
-            _scenarios_module().warn_if_untuned(vehicle, changes.get("controller",
-                                                                     sc.controller))
             natural = _scenarios_module().natural_settings
             if changes.get("controller", sc.controller) == "mfc-natural" and vehicle != sc.vehicle:
                 for imu in (False, True):
@@ -604,7 +595,6 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
 def _collecting(warned: list[str]):
     """The library's warnings of the block appended to ``warned`` as text instead of shown
     (those before an exception too)."""
-    import warnings
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -7,7 +7,8 @@ Definitions (the same for every controller, so that comparisons are fair):
 - **yaw error** [rad, reported in deg]: the vehicle's yaw minus the reference yaw, wrapped to
   (-pi, pi] (signal ``yaw_error``). The reference yaw is the recorded yaw for a recorded
   reference (the recording's own heading column, unwrapped; the LVMS recording's follows its
-  course to 0.03 deg median, so the recorded car's sideslip is not in it); for a track
+  course, signed median difference -0.03 deg (its PROVENANCE.md), so the recorded car's
+  sideslip is not in it); for a track
   reference it is the path heading corrected by the reference sideslip angle of the 3DoF
   model along the path, beta_ref = atan(Vy_ref / Vx_ref): comparing with the
   bare path heading would count the car's own sideslip as error. "Along the path" is taken
@@ -38,12 +39,12 @@ every controller); the default is :data:`DEFAULT_STARTUP_S`.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from flatfree._validate import nonnegative, real_array
+from flatfree._warn import warn
 from flatfree.trajectory import Trajectory
 
 __all__ = ["DEFAULT_STARTUP_S", "Metrics", "compute_metrics", "wrap_angle"]
@@ -141,9 +142,9 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
             end = f"the trajectory has no sample (startup_s = {startup_s:g} s)"
         if not traj.completed:
             end += f" (the run stopped at t = {traj.status_time:g} s: {traj.status.value})"
-        warnings.warn(f"compute_metrics: every metric is NaN but status, duration and "
+        warn(f"compute_metrics: every metric is NaN but status, duration and "
                       f"real-time factor: {end}; simulate longer or pass a shorter startup_s",
-                      RuntimeWarning, stacklevel=2)
+                      RuntimeWarning)
     t0 = traj.time[0] if len(traj) else 0.0
     part = traj.after(t0 + startup_s)
     ey = part["lateral_error"]

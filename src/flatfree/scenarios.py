@@ -81,11 +81,12 @@ References
 from __future__ import annotations
 
 import os
-import warnings
+from collections.abc import Mapping
 
 import numpy as np
 
 from flatfree._names import looks_like_path
+from flatfree._warn import warn
 from flatfree.scenario import NOISE_FREE_SUFFIX, ReferenceSpec, Scenario, Timing, _canonical
 from flatfree.sensors import SensorChannel, SensorSuite
 from flatfree.tracks._io import resolve as resolve_track
@@ -180,14 +181,15 @@ TUNED_VEHICLES: dict[str, tuple[str, ...]] = {"mfc-natural": ("peugeot406", "dal
                                              "mfc-flat": ("peugeot406",)}
 
 
-def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str, *,
-                    stacklevel: int = 2) -> None:
+def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
+                    settings: Mapping[str, object]) -> None:
     """Warn that ``controller``'s settings were not tuned on ``vehicle`` (a car other than
-    :data:`TUNED_VEHICLES`' bundled presets, a file too, whatever it holds): they are the
-    peugeot406's, and alpha_lat follows the car's steer gain. Nothing for the flatness
-    controller (its model is the car's own)."""
+    :data:`TUNED_VEHICLES`' bundled presets, a file too, whatever it holds) when ``settings``
+    (a scenario's ``controller_settings``) leave alpha_lat at the peugeot406's: alpha_lat
+    follows the car's steer gain. Nothing for the flatness controller (its model is the car's
+    own) or when alpha_lat is set. Said by every run (:func:`flatfree.simulation.prepare`)."""
     tuned = TUNED_VEHICLES.get(controller)
-    if tuned is None or bundled_name(vehicle) in tuned:
+    if tuned is None or "alpha_lat" in settings or bundled_name(vehicle) in tuned:
         return
     if controller == "mfc-natural":
         how = ("alpha_lat [(m/s^2)/rad] follows the car's steer gain C_f/m (peugeot406: 65, "
@@ -195,11 +197,10 @@ def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str, *,
     else:
         how = ("alpha_lat [(kg m^2/s^2)/rad] is of the order of the steer's effect on y2' "
                "over the estimator window (MfcFlatSettings)")
-    warnings.warn(
-        f"vehicle {str(vehicle)!r}: the {controller} controller's settings were tuned on "
-        f"{' and '.join(tuned)} only and are the peugeot406's here; {how}: retune "
-        "controller_settings.alpha_lat for this car (benchmarks/sweep_seeds.py --vehicle V "
-        "--set alpha_lat=A measures it)", UserWarning, stacklevel=stacklevel + 1)
+    warn(f"vehicle {str(vehicle)!r}: the {controller} controller's settings were tuned on "
+         f"{' and '.join(tuned)} only and alpha_lat is the peugeot406's here; {how}: set "
+         "controller_settings.alpha_lat for this car (benchmarks/sweep_seeds.py --vehicle V "
+         "--set alpha_lat=A measures it)")
 
 
 def natural_settings(vehicle: str, *, imu: bool = False) -> dict[str, float | int | str]:
@@ -252,7 +253,7 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         The natural-output designs then take the settings tuned for it
         (:func:`natural_settings`: alpha_lat is tied to the car), as ``flatfree run
         --vehicle`` does; a car they were not tuned on (:data:`TUNED_VEHICLES`: a file
-        too, whatever it holds) runs the peugeot406's, with a warning
+        too, whatever it holds) runs the peugeot406's, and its runs warn
         (:func:`warn_if_untuned`). (``scenario.with_(vehicle=...)`` changes the car and
         keeps every other setting, the tuning included.) An error for the recorded scenarios,
         whose car is the recording's, and for a name that is not bundled (``ValueError`` here;
@@ -299,14 +300,11 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
                  "(Figure 2)")
     if imu:
         what += " (lateral F from the inertial unit, beyond the paper)"
-    sc = Scenario(
+    return Scenario(
         name=name, description=what, vehicle=car, plant="10dof",
         controller=controller, controller_settings=dict(settings),
         reference=ReferenceSpec(track=track or DEFAULT_TRACK), timing=timing,
         sensors=REALISTIC_SENSORS, noise=noise, seed=seed)
-    if vehicle is not None:  # after the scenario's checks of the car
-        warn_if_untuned(vehicle, controller)
-    return sc
 
 
 def paper_scenarios(*, noise: bool = True, track: str | None = None) -> dict[str, Scenario]:

@@ -40,7 +40,6 @@ Units of ``noise_std`` and ``bias`` are those of the channel's signal (SI).
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -50,6 +49,7 @@ from numba import njit
 
 from flatfree._validate import finite, nonnegative, one_of, positive
 from flatfree._vecmath import no_refcount
+from flatfree._warn import warn
 
 __all__ = ["SENSOR_CHANNELS", "SensorChannel", "SensorSuite", "CompiledSensors", "sense_step"]
 
@@ -192,9 +192,9 @@ class SensorSuite:
                 rounded.append(f"{names[i]}.rate_hz = {ch.rate_hz:g} Hz -> "
                                f"{1.0 / (table[i, _PERIOD] * dt_control):g} Hz")
         if rounded:
-            warnings.warn(f"sensors at a control period of {dt_control:g} s: "
+            warn(f"sensors at a control period of {dt_control:g} s: "
                           f"{'; '.join(rounded)} (rounded to whole control periods)",
-                          UserWarning, stacklevel=2)
+                          UserWarning)
         if blocks is None:
             blocks = (n,)
         if sum(blocks) != n or any(int(b) != b or b < 0 for b in blocks):

@@ -54,6 +54,7 @@ per control step).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import enum
 import math
@@ -66,8 +67,9 @@ import numba
 import numpy as np
 from numba import njit
 
-from flatfree._validate import as_real
+from flatfree._validate import as_real, whole
 from flatfree._vecmath import all_finite, no_refcount
+from flatfree._warn import warn
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers.flatness import singular_speed
 from flatfree.controllers.intelligent import IST
@@ -88,7 +90,7 @@ from flatfree.metrics import wrap_angle
 from flatfree.models.bicycle3dof import Bicycle3DoFParams, rk4_step_into
 from flatfree.models.tendof import NU, TenDoF, TenDoFState, drive_speed, rk4_step_kernel
 from flatfree.scenario import Scenario
-from flatfree.scenarios import SCENARIO_NAMES, named_scenario
+from flatfree.scenarios import SCENARIO_NAMES, named_scenario, warn_if_untuned
 from flatfree.sensors import SENSOR_CHANNELS, sense_step
 from flatfree.tracks import (
     GC,
@@ -547,16 +549,18 @@ def flying_lap_speed(s: np.ndarray, v_ref: np.ndarray, vehicle: VehicleParams, *
     if s.ndim != 1 or s.shape != v_ref.shape or s.size == 0:
         raise ValueError(f"s, v_ref: shapes {s.shape}, {v_ref.shape}: expected the same 1-d "
                          "shape with at least one point")
+    max_laps = whole("max_laps", max_laps, 1, "laps")
     drv = _drive_array(vehicle)  # the drive model of tracks.speed.drive_acceleration
     v = np.empty_like(v_ref)
-    _flying_lap_kernel(s, v_ref, drv, closed, int(max_laps), v)
+    _flying_lap_kernel(s, v_ref, drv, closed, max_laps, v)
     return v
 
 
 @njit(cache=True)
 def _flying_lap_kernel(s, v_ref, drv, closed, max_laps, v):
     """:func:`flying_lap_speed`'s integration, written into ``v`` (compiled: a lap has 10^4-10^5
-    points, and the loop in Python took 16 ms of a Norisring run's 30 ms preparation)."""
+    points: in Python it took 16 ms of a Norisring run's 28 ms preparation; compiled 0.4 ms,
+    benchmarks/profile_closed_loop.py)."""
     v0 = v_ref[0]
     for _ in range(max_laps if closed else 1):
         v[0] = v0
@@ -628,11 +632,11 @@ def _warn_if_beyond_steer_lock(ref: Reference, vehicle: VehicleParams) -> None:
     k_max = float(np.nanmax(kappa))
     need = vehicle.wheelbase * k_max
     if need > vehicle.max_steer:
-        warnings.warn(
+        warn(
             f"the reference's tightest curve (radius {1.0 / k_max:.1f} m) needs a road-wheel "
             f"steer of at least {need:.3f} rad (wheelbase x curvature), beyond "
             f"{vehicle.name}'s max_steer = {vehicle.max_steer:.3f} rad: the car cannot follow "
-            "the path there", UserWarning, stacklevel=3)
+            "the path there", UserWarning)
 
 
 def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
@@ -646,12 +650,12 @@ def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
     vx = vx[np.isfinite(vx)]
     if v_star is None or vx.size == 0 or not vx.min() <= v_star <= vx.max():
         return
-    warnings.warn(
+    warn(
         f"{controller} on {vehicle.name}: the reference's speed ({vx.min():.1f}-{vx.max():.1f} "
         f"m/s) passes {v_star:.1f} m/s, where the steer has no effect on the flat output "
         f"y2 = lf m Vy - Iz r (yaw index Iz / (m lf lr) = "
         f"{model.iz / (model.m * model.lf * model.lr):.2f} < 1): the lateral loop fails near "
-        "that speed", UserWarning, stacklevel=3)
+        "that speed", UserWarning)
 
 
 def _check_road(sc: Scenario, ref: Reference) -> None:
@@ -674,9 +678,9 @@ def _check_road(sc: Scenario, ref: Reference) -> None:
                 "length along the path" + (", modulo the lap, and act on every lap)"
                                            if ref.path.closed else ")"))
     if sc.plant == "3dof" and (sc.road.mu != 1.0 or sc.road.patches):
-        warnings.warn(f"road.mu = {sc.road.mu!r} and {len(sc.road.patches)} friction patch(es) "
+        warn(f"road.mu = {sc.road.mu!r} and {len(sc.road.patches)} friction patch(es) "
                       "do not act on the 3dof plant (linear tyres, no friction limit): use "
-                      "plant = '10dof' for the road's friction", UserWarning, stacklevel=4)
+                      "plant = '10dof' for the road's friction", UserWarning)
 
 
 def reference_of(sc: Scenario | str) -> Reference:
@@ -701,6 +705,8 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     ref = _reference(sc, vehicle)
     _warn_if_beyond_steer_lock(ref, vehicle)
     _check_road(sc, ref)
+    if python_controller is None:
+        warn_if_untuned(sc.vehicle, sc.controller, sc.controller_settings)
     bic = Bicycle3DoFParams.from_vehicle(vehicle)
     if python_controller is None:
         _warn_if_flat_output_singular(ref, bic, sc.controller, vehicle)
@@ -762,8 +768,8 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     late = [f"fault[{i}] ({f.kind}) at t_start_s = {f.t_start_s:g} s"
             for i, f in enumerate(sc.faults) if f.t_start_s >= duration]
     if late:
-        warnings.warn(f"{', '.join(late)}: at or after the run's end ({duration:g} s at most), "
-                      "never happens", UserWarning, stacklevel=3)
+        warn(f"{', '.join(late)}: at or after the run's end ({duration:g} s at most), "
+                      "never happens", UserWarning)
     # start on the reference, with its sideslip and path curvature, at the speed the car can
     # have there: on a closed track the car arrives at the line on a flying lap, and the
     # friction-only profile may ask for more than the engine gives (LVMS: 49.7 m/s at s = 0,
@@ -955,8 +961,7 @@ def simulate_prepared(prep: Prepared, controller: PythonController | None = None
 
 
 def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> Trajectory:
-    """The run of :func:`simulate` and :func:`simulate_prepared` (one call level below
-    either: its warning's ``stacklevel`` names their caller)."""
+    """The run of :func:`simulate` and :func:`simulate_prepared`."""
     sc = prep.scenario
     cref = prep.cref
     vehicle = prep.vehicle
@@ -995,10 +1000,7 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     steer_f = np.array([[f.t_start_s, f.t_start_s + f.duration_s, f.value] for f in sc.faults
                         if f.kind == "steer_limit"], dtype=float).reshape(-1, 3)
     # the controller's state lives in its arrays: the run's own copies (prep stays as built)
-    ctrl = dataclasses.replace(prep.controller, **{
-        f.name: getattr(prep.controller, f.name).copy()
-        for f in dataclasses.fields(prep.controller)
-        if isinstance(getattr(prep.controller, f.name), np.ndarray)})
+    ctrl = copy.deepcopy(prep.controller)
     x = prep.x0.copy()
     ls = np.zeros(_LS_N)
     scratch = _loop_scratch(x.shape[0])
@@ -1056,7 +1058,7 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     if "psi_recorded" in ref.extras:
         # a recording: the recorded yaw (issue 7's definition; the path's tangent is the course
         # error's reference below). The LVMS recording's phi follows its course, atan2(dy, dx),
-        # to 0.03 deg median (its PROVENANCE.md): its car's sideslip is not in it
+        # signed median difference -0.03 deg (its PROVENANCE.md): its car's sideslip is not in it
         psi_full = ref.extras["psi_recorded"]
     else:
         psi_full = ref["psi"] - prep.beta_ref  # heading = path course - sideslip (ISO 8855)
@@ -1095,11 +1097,11 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
                     f"command at {counts} of its {n_calls} calls")
         else:
             head = f"controller {sc.controller}: a non-finite command at {counts} control steps"
-        warnings.warn(
+        warn(
             f"{head}, the first at t = {meta['first_nonfinite_cmd_t_s']:.6g} s (control step "
             f"{int(ls[_LS_NF_FIRST]) // timing.control_every}); the actuators held the previous "
             "command there (flatfree.actuators.actuate_step). Counts in the trajectory's meta "
-            "(n_nonfinite_torque_cmd, n_nonfinite_steer_cmd)", RuntimeWarning, stacklevel=3)
+            "(n_nonfinite_torque_cmd, n_nonfinite_steer_cmd)", RuntimeWarning)
     return Trajectory(time=log[:, LOG.T], signals=signals, units=units, status=status,
                       status_time=None if status is Status.COMPLETED else sim_time, meta=meta)
 

@@ -78,7 +78,6 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -87,6 +86,7 @@ import numpy as np
 from numba import njit
 
 from flatfree._validate import as_real, finite, positive, real, whole
+from flatfree._warn import warn
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers._shell import independent_copy, nonfinite_command
 from flatfree.controllers.flatness_control import (
@@ -219,19 +219,23 @@ def rescale_sample_counts(settings, dt: float, *, from_dt: float = TUNED_PERIOD_
     """``settings`` with every sample count moved from control period ``from_dt`` [s] to
     ``dt`` [s] so that each window and denoiser keeps its duration.
 
-    A count ``n`` becomes the nearest whole number to ``n from_dt / dt``, at least 2 (the
-    smallest window the settings accept); 0 (a denoiser off) stays 0. Settings without sample
-    counts (:class:`FlatnessSettings`) come back unchanged. The gains, time constants and
-    rates of the settings are in seconds already and stay. What the durations are worth at
-    another rate was measured on the 10DoF with noise (benchmarks/README.md "Control period");
-    the windows of the algebraic estimator lose their noise averaging as the rate falls.
+    A count ``n`` becomes the nearest whole number to ``n from_dt / dt``, at least the smallest
+    the settings accept (:data:`_MIN_SAMPLES`: 3 for the natural-output windows, 2 for the
+    others); 0 (a denoiser off) stays 0. Settings without sample counts
+    (:class:`FlatnessSettings`) come back unchanged. The gains, time constants and rates of the
+    settings are in seconds already and stay. What the durations are worth at another rate
+    was measured on the 10DoF with noise (benchmarks/README.md "Control period").
     """
     dt = positive("dt", dt, "s")
     ratio = positive("from_dt", from_dt, "s") / dt
-    changes = {k: 0 if n == 0 else max(2, round(n * ratio))
+    least = _MIN_SAMPLES.get(type(settings), {})
+    changes = {k: 0 if n == 0 else max(least.get(k, 2), round(n * ratio))
                for k, n in sample_counts(settings).items()}
     return dataclasses.replace(settings, **changes) if changes else settings
 
+
+# the natural-output controller's smallest estimator window (the iPD's nu = 2 fit) [samples]
+_NATURAL_MIN_WINDOW = 3
 
 # a window whose duration is off the tuned one by more than this factor is warned about
 _PERIOD_WARN_RATIO = 1.5
@@ -239,27 +243,28 @@ _PERIOD_WARN_RATIO = 1.5
 
 def _warn_if_untuned_period(controller: str, settings, dt: float) -> None:
     """Warn when a model-free controller runs at a period other than :data:`TUNED_PERIOD_S`
-    with an estimator window whose duration is more than 1.5x off the default window's
-    (the counts were left as tuned at 1 kHz): at 100 Hz the natural-output controller's
-    default windows span 1 s instead of 0.1 s and the car leaves the track within 5 s
-    (benchmarks/README.md "Control period"). The denoisers are not checked: their tuned
-    lengths differ between the named scenarios (``denoise_yaw`` 50 or 20 samples)."""
+    with its estimator windows left at the counts tuned at 1 kHz (the defaults) and their
+    durations more than 1.5x off the tuned ones: at 100 Hz the natural-output controller's
+    default windows span 1 s instead of 0.1 s, and the car leaves Norisring at 4.7 s
+    (benchmarks/README.md "Control period"). Counts a user chose are the user's (a chosen
+    count that equals the default is taken as left at it); the denoisers are not checked
+    (their tuned lengths differ between the named scenarios: ``denoise_yaw`` 50 or 20)."""
     if abs(dt - TUNED_PERIOD_S) <= 1e-9 * TUNED_PERIOD_S:
         return
     tuned = type(settings)()
     off = []
     for k in ("window_lon", "window_lat"):
         n = getattr(settings, k)
-        span, tuned_span = n * dt, getattr(tuned, k) * TUNED_PERIOD_S
+        if n != getattr(tuned, k):
+            continue
+        span, tuned_span = n * dt, n * TUNED_PERIOD_S
         if not 1.0 / _PERIOD_WARN_RATIO <= span / tuned_span <= _PERIOD_WARN_RATIO:
             off.append(f"{k} = {n} samples spans {span:g} s (tuned: {tuned_span:g} s)")
     if off:
-        warnings.warn(
-            f"{controller} at a control period of {dt:g} s: its sample counts were tuned at "
-            f"{TUNED_PERIOD_S:g} s; {'; '.join(off)}. It is not the tuned controller and may "
-            f"leave the track: scale them with settings.for_period({dt:g}) "
-            "(Scenario.with_control_period, flatfree run --control-period)",
-            RuntimeWarning, stacklevel=3)
+        warn(f"{controller} at a control period of {dt:g} s: its sample counts were tuned at "
+             f"{TUNED_PERIOD_S:g} s; {'; '.join(off)}. It is not the tuned controller and may "
+             f"leave the track: scale them with settings.for_period({dt:g}) "
+             "(Scenario.with_control_period, flatfree run --control-period)", RuntimeWarning)
 
 
 def _denoiser(n: int) -> np.ndarray:
@@ -542,7 +547,8 @@ class MfcNaturalSettings:
             raise ValueError(f"wn_lat_ratio = {self.wn_lat_ratio!r}: must be >= 1")
         positive("zeta_lat", self.zeta_lat, "-")
         for k in ("window_lon", "window_lat"):  # stored as ints (a TOML 100.0 too)
-            object.__setattr__(self, k, whole(k, getattr(self, k), 3, "samples"))
+            object.__setattr__(self, k, whole(k, getattr(self, k), _NATURAL_MIN_WINDOW,
+                                              "samples"))
         if self.derivative_lat not in ("model", "algebraic"):
             raise ValueError(
                 f"derivative_lat = {self.derivative_lat!r}: must be 'model' or 'algebraic'")
@@ -710,6 +716,10 @@ class FlatnessSettings:
         positive("cr_scale", self.cr_scale, "-")
 
 
+#: The smallest window each settings class accepts, where it is not 2 (its __post_init__).
+_MIN_SAMPLES = {MfcNaturalSettings: dict.fromkeys(("window_lon", "window_lat"),
+                                                  _NATURAL_MIN_WINDOW)}
+
 _SETTINGS = {"mfc-natural": MfcNaturalSettings, "mfc-flat": MfcFlatSettings,
              "flatness": FlatnessSettings}
 
@@ -823,7 +833,6 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
     sees the difference as part of F).
     """
     dt = positive("dt", dt, "s")
-    _warn_if_untuned_period(controller, settings, dt)
     # with feed_applied the actuator alone rate-limits the steer and the estimator is told what
     # it applied; a second rate limit inside the iPD would integrate the yaw damper's term
     feed = bool(getattr(settings, "feed_applied", False))
@@ -866,6 +875,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                          0.0, 0.0, 0.0, *_outer_coef(s2, dt)])
     else:
         raise ValueError(f"controller = {controller!r}: expected 'mfc-flat' or 'mfc-natural'")
+    _warn_if_untuned_period(controller, settings, dt)
     p_lon = lon.to_array()
     p_lat = lat.to_array()
     return VehicleControllerArrays(int(kind), p_lon, make_state(p_lon), p_lat,
@@ -965,12 +975,14 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # reference.lateral_offset_m; it was the path's own, so the flat-output designs drove
         # the path instead of the offset line)
         e_line = meas[6] - cref[5]
+        # ... and its heading: the line turns from the path's tangent by e_y_ref' / v
+        e_psi_line = meas[7] - cref[6] / max(meas[3], _OUTER_V_MIN)
         zeta = coef[9]
         if coef[11] != 0.0:  # integral action: integrate e_y / v, triple pole (zeta unused)
             zeta = 0.0
             if math.isfinite(e_line) and math.isfinite(meas[3]):
                 coef[13] += coef[12] * e_line / max(meas[3], _OUTER_V_MIN)
-        dr = path_correction(meas[3], meas[4], e_line, meas[7], coef[8], zeta, coef[13])
+        dr = path_correction(meas[3], meas[4], e_line, e_psi_line, coef[8], zeta, coef[13])
         if coef[10] != 0.0:
             dr += cref[10]
         if math.isfinite(dr) and math.isfinite(cref[9]):

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import enum
 import math
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +35,7 @@ import numpy as np
 from scipy.interpolate import make_interp_spline
 
 from flatfree._validate import real, real_array
+from flatfree._warn import warn
 from flatfree.tracks._io import MIN_SEGMENT_M, validate_polyline
 
 __all__ = [
@@ -733,12 +733,12 @@ class Track:
             closed = gap < _CLOSE_GAP_SPACINGS * spacing
             if closed and gap > _CLOSE_WARN_SPACINGS * spacing:
                 what = f"{name} ({source})" if name and source and name != source else src
-                warnings.warn(
+                warn(
                     f"{what}: closed into a loop because its end is {gap:.3g} m from its start "
                     f"({gap / spacing:.2g} median point spacings of {spacing:.3g} m), across a "
                     "closing segment that is not in the data; pass closed=False to keep the path "
                     "open, closed=True to confirm the loop",
-                    UserWarning, stacklevel=2,
+                    UserWarning
                 )
         if closed:
             gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
