@@ -526,6 +526,9 @@ def test_noise_flag_without_noisy_sensors_says_so(runner, tmp_path):
     res = _invoke(runner, ["run", str(f), "--noise", "--seed", "2"])
     assert "no effect" not in res.stderr
     assert res.stdout.splitlines()[0].endswith("noise on, seed 2")
+    # with the noise off a seed changes nothing either (it was not said)
+    res = _invoke(runner, ["run", str(f), "--no-noise", "--seed", "2"])
+    assert "note: --seed has no effect: the run's sensor noise is off" in res.stderr
 
 
 def test_sensor_suite_knows_whether_it_draws_random_numbers():

@@ -1,4 +1,5 @@
-"""The one bundled-name lookup of the loaders (tracks, race lines, recordings, vehicles, tyres).
+"""The one bundled-name lookup of the loaders (tracks, race lines, recordings, vehicles, tyres),
+and the one rule by which a file's relative references are read from its folder (:func:`anchored`).
 
 A name matches a bundled file's name case-insensitively, surrounding blanks ignored, and with
 the kind's own file suffix optional when the kind allows it (a track's ``.csv``; not a vehicle's
@@ -13,7 +14,7 @@ from collections.abc import Callable
 from pathlib import PurePath
 from typing import Any
 
-__all__ = ["bundled_name", "looks_like_path"]
+__all__ = ["bundled_name", "looks_like_path", "anchored"]
 
 
 @functools.cache
@@ -48,3 +49,26 @@ def looks_like_path(text: str) -> bool:
     error is then "file not found", not "unknown name"): one with a folder separator or a file
     suffix. No bundled name has either."""
     return "/" in text or "\\" in text or bool(PurePath(text).suffix)
+
+
+def anchored(value: Any, folder: str | os.PathLike[str], bundled: Callable[[str], str | None]
+             ) -> Any:
+    """``value``, a bundled name or a file path written in a file of ``folder``, as the loaders
+    read it: an existing file there as its absolute path, else a bundled name (``bundled``,
+    the kind's lookup) in its own spelling, else a value that looks like a path
+    (:func:`looks_like_path`) absolute in ``folder``, else (and what is no name or path) as
+    given. A scenario file's references and a vehicle file's tyres follow this one rule."""
+    if not isinstance(value, (str, os.PathLike)):
+        return value
+    text = os.fspath(value)
+    if os.path.isabs(text):
+        return text
+    full = os.path.normpath(os.path.join(os.path.abspath(folder), text))
+    if os.path.isfile(full):
+        return full
+    name = bundled(text)
+    if name is not None:
+        return name
+    if looks_like_path(text):
+        return full
+    return text  # neither a file nor a name: the loader's error names it as written

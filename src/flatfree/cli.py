@@ -463,14 +463,14 @@ def scenario_list(as_json: bool) -> None:
 def _vehicle_option(ctx, param, value: str | None) -> str | None:
     if value is None:
         return None
-    from flatfree.vehicles.params import bundled_name, vehicle_file
+    from flatfree.scenario import _canonical
+    from flatfree.vehicles.params import vehicle_file
 
     try:  # the loader's lookup and message; a path is read at the run
         vehicle_file(value)
     except ValueError as exc:
         raise click.BadParameter(f"{exc}; or the path of a vehicle TOML file") from None
-    name = bundled_name(value)
-    return value if name is None or Path(value).is_file() else name
+    return _canonical(value, "vehicle")  # a bundled car in its own spelling, as a Scenario
 
 
 def _controller_choices() -> list[str]:
@@ -784,11 +784,12 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
                         recording=recording, vehicle=vehicle, cf_scale=cf_scale,
                         cr_scale=cr_scale, noise=noise, seed=seed, duration_s=duration_s,
                         control_period_s=control_period_s, settings=settings)
-    if sc.noise and not sc.sensors.random and (noise or seed is not None):
+    if (noise or seed is not None) and not sc.effective_sensors.random:
         given = [o for o, v in (("--noise", noise), ("--seed", seed is not None)) if v]
         verb = "has" if len(given) == 1 else "have"
-        _err(f"note: {' and '.join(given)} {verb} no effect: scenario {sc.name!r} gives no "
-             "sensor random noise (a noise_std or a markov_std)")
+        why = (f"scenario {sc.name!r} gives no sensor random noise (a noise_std or a "
+               "markov_std)" if sc.noise else "the run's sensor noise is off")
+        _err(f"note: {' and '.join(given)} {verb} no effect: {why}")
     with _out_dir(out_dir):
         # the reference the run was built on, for the notes, the recorded steer and the figures
         tr, reference = _simulate(sc)

@@ -142,9 +142,8 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
             end = f"the trajectory has no sample (startup_s = {startup_s:g} s)"
         if not traj.completed:
             end += f" (the run stopped at t = {traj.status_time:g} s: {traj.status.value})"
-        warn(f"compute_metrics: every metric is NaN but status, duration and "
-                      f"real-time factor: {end}; simulate longer or pass a shorter startup_s",
-                      RuntimeWarning)
+        warn(f"compute_metrics: every metric is NaN but status, duration and real-time "
+             f"factor: {end}; simulate longer or pass a shorter startup_s", RuntimeWarning)
     t0 = traj.time[0] if len(traj) else 0.0
     part = traj.after(t0 + startup_s)
     ey = part["lateral_error"]

@@ -105,7 +105,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from flatfree._names import looks_like_path
+from flatfree._names import anchored
 from flatfree._validate import (
     as_real,
     finite,
@@ -522,23 +522,8 @@ def _plain(obj) -> dict[str, Any]:
 
 def _anchored(value: Any, folder: Path, kind: str) -> Any:
     """``value``, a bundled name or a file path, as a loader reads it from ``folder``
-    (precedence: module docstring): an existing file there as its absolute path, a bundled name
-    in its own spelling, another value that looks like a path absolute in ``folder``, anything
-    else (and what is no name or path) as given."""
-    if not isinstance(value, (str, os.PathLike)):
-        return value
-    text = os.fspath(value)
-    if os.path.isabs(text):
-        return text
-    full = os.path.normpath(os.path.join(os.path.abspath(folder), text))
-    if os.path.isfile(full):
-        return full
-    name = _bundled(text, kind)
-    if name is not None:
-        return name
-    if looks_like_path(text):
-        return full
-    return text  # neither a file nor a name: the loader's error names it as written
+    (precedence: module docstring; :func:`flatfree._names.anchored`)."""
+    return anchored(value, folder, lambda text: _bundled(text, kind))
 
 
 def _anchor_files(sc: Scenario, folder: Path) -> Scenario:

@@ -192,9 +192,8 @@ class SensorSuite:
                 rounded.append(f"{names[i]}.rate_hz = {ch.rate_hz:g} Hz -> "
                                f"{1.0 / (table[i, _PERIOD] * dt_control):g} Hz")
         if rounded:
-            warn(f"sensors at a control period of {dt_control:g} s: "
-                          f"{'; '.join(rounded)} (rounded to whole control periods)",
-                          UserWarning)
+            warn(f"sensors at a control period of {dt_control:g} s: {'; '.join(rounded)} "
+                 "(rounded to whole control periods)")
         if blocks is None:
             blocks = (n,)
         if sum(blocks) != n or any(int(b) != b or b < 0 for b in blocks):

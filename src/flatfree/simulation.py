@@ -678,9 +678,9 @@ def _check_road(sc: Scenario, ref: Reference) -> None:
                 "length along the path" + (", modulo the lap, and act on every lap)"
                                            if ref.path.closed else ")"))
     if sc.plant == "3dof" and (sc.road.mu != 1.0 or sc.road.patches):
-        warn(f"road.mu = {sc.road.mu!r} and {len(sc.road.patches)} friction patch(es) "
-                      "do not act on the 3dof plant (linear tyres, no friction limit): use "
-                      "plant = '10dof' for the road's friction", UserWarning)
+        warn(f"road.mu = {sc.road.mu!r} and {len(sc.road.patches)} friction patch(es) do not "
+             "act on the 3dof plant (linear tyres, no friction limit): use plant = '10dof' for "
+             "the road's friction")
 
 
 def reference_of(sc: Scenario | str) -> Reference:
@@ -768,8 +768,8 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     late = [f"fault[{i}] ({f.kind}) at t_start_s = {f.t_start_s:g} s"
             for i, f in enumerate(sc.faults) if f.t_start_s >= duration]
     if late:
-        warn(f"{', '.join(late)}: at or after the run's end ({duration:g} s at most), "
-                      "never happens", UserWarning)
+        warn(f"{', '.join(late)}: at or after the run's end ({duration:g} s at most), never "
+             "happens")
     # start on the reference, with its sideslip and path curvature, at the speed the car can
     # have there: on a closed track the car arrives at the line on a flying lap, and the
     # friction-only profile may ask for more than the engine gives (LVMS: 49.7 m/s at s = 0,

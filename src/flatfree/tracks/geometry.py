@@ -727,26 +727,20 @@ class Track:
                     f"{src}: the last point repeats the first (a closed loop) but closed=False"
                 )
             closed = True
+        gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
         if closed is None:
             spacing = float(np.median(np.hypot(np.diff(x), np.diff(y))))
-            gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
             closed = gap < _CLOSE_GAP_SPACINGS * spacing
             if closed and gap > _CLOSE_WARN_SPACINGS * spacing:
                 what = f"{name} ({source})" if name and source and name != source else src
-                warn(
-                    f"{what}: closed into a loop because its end is {gap:.3g} m from its start "
-                    f"({gap / spacing:.2g} median point spacings of {spacing:.3g} m), across a "
-                    "closing segment that is not in the data; pass closed=False to keep the path "
-                    "open, closed=True to confirm the loop",
-                    UserWarning
-                )
-        if closed:
-            gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
-            if gap < MIN_SEGMENT_M:
-                raise ValueError(
-                    f"{where(len(x) - 1)}: zero-length closing segment to the first point "
-                    f"({gap:.3g} m)"
-                )
+                warn(f"{what}: closed into a loop because its end is {gap:.3g} m from its start "
+                     f"({gap / spacing:.2g} median point spacings of {spacing:.3g} m), across a "
+                     "closing segment that is not in the data; pass closed=False to keep the "
+                     "path open, closed=True to confirm the loop (load_track, "
+                     "Track.from_points; a scenario's track file is read with this detection)")
+        if closed and gap < MIN_SEGMENT_M:
+            raise ValueError(f"{where(len(x) - 1)}: zero-length closing segment to the first "
+                             f"point ({gap:.3g} m)")
         extent = max(np.ptp(x), np.ptp(y))
         if ds > extent:
             raise ValueError(f"ds = {ds!r} m: larger than the path extent ({extent:.3g} m)")

@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from flatfree._names import anchored, looks_like_path
 from flatfree._names import bundled_name as _bundled_name
-from flatfree._names import looks_like_path
 from flatfree._validate import finite, in_range, nonnegative, positive
 from flatfree.units import G
 
@@ -378,9 +378,12 @@ def bundled_name(name: Any, kind: str = "vehicle") -> str | None:
 def _resolve(name_or_path: str | Path, folder, kind: str, base: Path | None = None):
     """The file of ``name_or_path``: a path when it names an existing file or looks like one
     (:func:`flatfree._names.looks_like_path`: a missing one gives the reader's "file not
-    found"), else a bundled name (:func:`bundled_name`). A relative path is taken in the folder
-    ``base`` (None: the current directory)."""
-    p = Path(name_or_path) if base is None else base / name_or_path
+    found"), else a bundled name (:func:`bundled_name`). A reference written in a file of the
+    folder ``base`` is read from there (:func:`flatfree._names.anchored`, the scenario files'
+    rule; None: as given, from the current directory)."""
+    if base is not None:
+        name_or_path = anchored(name_or_path, base, lambda text: bundled_name(text, kind))
+    p = Path(name_or_path)
     if p.is_file() or looks_like_path(str(name_or_path)):
         return p
     name = bundled_name(name_or_path, kind)
