@@ -370,6 +370,27 @@ def test_a_vehicle_file_with_an_unknown_key_or_table_is_refused(tmp_path, change
 
 
 @pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        (lambda text: text.replace("cornering_law =", "corneringlaw ="), "corneringlaw"),
+        (lambda text: text.replace("[coefficients]", "[coeficients]"), "coeficients"),
+        (lambda text: text + '\n[coefficient]\npdy1 = { value = 1.0, source = "x" }\n',
+         "coefficient"),
+    ],
+    ids=["key", "misspelt-table", "extra-table"],
+)
+def test_a_tyre_file_with_an_unknown_key_or_table_is_refused(tmp_path, change, key):
+    """As a vehicle file: a top-level key the loader does not read was ignored (a misspelt
+    cornering_law gave the default "mf52" law silently); refused, naming the file and the key."""
+    f = tmp_path / "tyre.toml"
+    f.write_text(change(_tire_text("commonroad")), encoding="utf-8")
+    with pytest.raises(ValueError, match=rf"^tire file {re.escape(str(f))}: unknown "
+                                         rf"key\(s\) '{key}'; valid: name, cornering_law, "
+                                         r"coefficients$"):
+        load_tire(f)
+
+
+@pytest.mark.parametrize(
     ("entry", "message"),
     [
         (f'{{ set = "{_PJ}", lambda_ky = 0.9, lamda_kx = 1.1, source = "x" }}',

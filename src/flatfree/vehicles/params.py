@@ -449,6 +449,7 @@ def _load_tire(name_or_path: str | Path, base: Path | None = None) -> TireParams
     path = _resolve(name_or_path, _DATA / "tires", "tire", base)
     doc = _read_toml(path, f"tire {name_or_path}")
     where = f"tire file {path}"
+    _known_keys(doc, _TIRE_KEYS, where)
     coeffs = _values(doc.get("coefficients", {}), TireParams, where)
     _require(coeffs, TireParams, where, skip=("name", "cornering_law"))
     try:
@@ -461,6 +462,18 @@ def _load_tire(name_or_path: str | Path, base: Path | None = None) -> TireParams
         raise ValueError(f"{where}: {exc}") from None
 
 
+def _known_keys(table: dict, valid: tuple[str, ...], where: str) -> None:
+    """Refuse the keys of a file's ``table`` that the loader does not read (a misspelt key or
+    table would otherwise be ignored, its values silently missing), naming them and the valid
+    ones."""
+    unknown = [k for k in table if k not in valid]
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; valid: "
+                         f"{', '.join(valid)}")
+
+
+#: The top-level keys of a tyre file (``coefficients``: the table of TireParams values).
+_TIRE_KEYS = ("name", "cornering_law", "coefficients")
 #: The top-level keys of a vehicle file, all required.
 _VEHICLE_KEYS = ("name", "drive", "tire_front", "tire_rear", "params")
 #: The keys of a vehicle file's tyre table ``{set = ..., source = ..., <coefficient> = ...}``.
@@ -480,10 +493,7 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
     path = vehicle_file(name_or_path)
     doc = _read_toml(path, f"vehicle {name_or_path}")
     where = f"vehicle file {path}"
-    unknown = [key for key in doc if key not in _VEHICLE_KEYS]
-    if unknown:
-        raise ValueError(f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; valid: "
-                         f"{', '.join(_VEHICLE_KEYS)}")
+    _known_keys(doc, _VEHICLE_KEYS, where)
     for key in _VEHICLE_KEYS:
         if key not in doc:
             raise ValueError(f"{where}: missing key {key!r}")
@@ -513,10 +523,7 @@ def _tire_from_doc(spec, base: Path | None, side: str) -> TireParams:
     file's paths, :mod:`flatfree.scenario`), or ``{set = ..., lambda_ky = ..., source = ...}``
     (a set and values that replace its own). A ``ValueError`` names ``side``."""
     table = spec if isinstance(spec, dict) else {"set": spec}
-    unknown = [k for k in table if k not in _TIRE_ENTRY_KEYS]
-    if unknown:
-        raise ValueError(f"{side}: unknown key(s) {', '.join(map(repr, unknown))}; valid: "
-                         f"{', '.join(_TIRE_ENTRY_KEYS)}")
+    _known_keys(table, _TIRE_ENTRY_KEYS, side)
     if not isinstance(table.get("set"), str):
         raise ValueError(f"{side}: tire entry {spec!r} is neither a set name or path nor a "
                          "table with one as 'set'")
