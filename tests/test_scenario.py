@@ -198,6 +198,48 @@ def test_bad_patches_container_is_refused():
         RoadSpec(patches=3)
 
 
+def test_a_tracks_shape_and_smoothing_are_reference_settings(tmp_path):
+    """reference.closed and reference.smoothing_length_m reach load_track: an out-and-back road
+    digitised every 10 m ends 2.4 spacings from its start, which the detection closes with a
+    warning (tests/test_tracks_io.py); closed = false keeps the run's path open, silently. Checked
+    and refused by name; a recording has neither (its path is the one driven)."""
+    from flatfree.simulation import prepare, reference_of
+    from flatfree.tracks import load_track
+
+    out = np.arange(0.0, 301.0, 10.0)
+    a = np.linspace(0.0, np.pi, 5)[1:-1]
+    xy = np.concatenate([np.column_stack([out, 0.0 * out]),
+                         np.column_stack([300 + 12 * np.sin(a), 12 - 12 * np.cos(a)]),
+                         np.column_stack([out[::-1], 0.0 * out + 24.0])])
+    f = tmp_path / "road.csv"
+    f.write_text("x,y\n" + "".join(f"{p:.6f},{q:.6f}\n" for p, q in xy))
+    base = Scenario(reference=ReferenceSpec(track=str(f), a_lat_max=3.0))
+    with pytest.warns(UserWarning, match=r"closed into a loop .*reference\.closed"):
+        assert prepare(base).reference.path.closed
+    sc = base.with_settings(["reference.closed=false"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        path = prepare(sc).reference.path
+    assert not path.closed
+    assert path.length == pytest.approx(load_track(f, closed=False).length, rel=1e-12)
+    assert scenario_from_toml(sc.to_toml()) == sc
+    smooth = reference_of(Scenario(reference=ReferenceSpec(track="Norisring",
+                                                           smoothing_length_m=60.0)))
+    want = load_track("Norisring", smoothing_length=60.0)
+    assert smooth.path.length == want.length != load_track("Norisring").length
+    for bad, msg in ((dict(closed="yes"), r"^reference.closed = 'yes': must be true or false$"),
+                     (dict(closed=1), r"^reference.closed = 1: must be true or false$"),
+                     (dict(smoothing_length_m=0.0),
+                      r"^reference.smoothing_length_m = 0.0 m: must be > 0$"),
+                     (dict(smoothing_length_m=math.nan),
+                      r"^reference.smoothing_length_m = nan m: must be finite$"),
+                     (dict(track=None, recording="LVMS_23_01_04_B", closed=False),
+                      (r"^reference.closed = False: a track's setting; the reference is the "
+                       r"recording 'LVMS_23_01_04_B' \(its path as driven\)$"))):
+        with pytest.raises(ValueError, match=msg):
+            ReferenceSpec(**bad)
+
+
 def test_reference_needs_exactly_one_source():
     with pytest.raises(ValueError, match="exactly one of track"):
         ReferenceSpec(track=None)
@@ -396,6 +438,8 @@ def _flat(sc: Scenario) -> dict:
         ("reference.j_lat_max=1.5e-3", "reference.j_lat_max", 1.5e-3),
         ("timing.plant_dt_s=5e-4", "timing.plant_dt_s", 5e-4),
         ("reference.drive_limit=false", "reference.drive_limit", False),
+        ("reference.closed=false", "reference.closed", False),
+        ("reference.smoothing_length_m=60", "reference.smoothing_length_m", 60.0),
         ("noise=true", "noise", True),
         ('reference.track="Monza"', "reference.track", "Monza"),
         ("reference.track=Monza", "reference.track", "Monza"),  # a bare string

@@ -330,6 +330,8 @@ j_lat_max = inf             # lateral jerk v^3 |dkappa/ds| [m/s^3]; inf: no limi
                             # a rough path drivable (costs a bundled track's lap 0.31 s at
                             # most: Spa, 0.13 %)
 drive_limit = false         # true: also within the car's drive limit (power, torque, drag)
+# closed = false            # a track file: open road (false) or loop (true); default: detected
+# smoothing_length_m = 20.0 # a track's smoothing cut-off wavelength [m]; default 20 (LVMS 60)
 
 [timing]
 plant_dt_s = 0.001          # plant RK4 step

@@ -29,6 +29,8 @@ TOML layout (every key optional except where a section says so; units in the key
     mu = 1.0
     j_lat_max = inf                 # lateral jerk v^3 |dkappa/ds| [m/s^3]; inf = no limit
     drive_limit = false             # true: also within the car's drive limit (power, torque)
+    # closed = false                # a track file's shape; default: detected from the file
+    # smoothing_length_m = 20.0     # track smoothing cut-off [m]; default: the loader's
 
     [controller_settings]           # the chosen controller's own settings (checked by it)
 
@@ -199,6 +201,13 @@ class ReferenceSpec:
     #: reach on the straights (peugeot406: speed error RMS ~2.3 m/s, 0.1-0.4 m/s with the limit;
     #: benchmarks/README.md "Closed loop")
     drive_limit: bool = False
+    #: a track file's shape (tracks.load_track): a loop (true) or an open road (false); None
+    #: (default, omitted in TOML) detects it from the file (a closing repeat of the first
+    #: point, or the ends within 3 point spacings)
+    closed: bool | None = None
+    #: the track's smoothing cut-off wavelength [m] (tracks.load_track); None (default): the
+    #: loader's (20 m; 60 m for the LVMS centerline built from its bounds)
+    smoothing_length_m: float | None = None
 
     def __post_init__(self) -> None:
         for k in ("track", "recording"):
@@ -214,9 +223,18 @@ class ReferenceSpec:
         _choice("reference.line", self.line, LINES)
         finite("reference.lateral_offset_m", self.lateral_offset_m, "m")
         whole("reference.laps", self.laps, 1)
-        if not isinstance(self.drive_limit, bool):
-            raise ValueError(f"reference.drive_limit = {self.drive_limit!r}: must be true or "
-                             "false")
+        for k in ("drive_limit", "closed"):
+            v = getattr(self, k)
+            if not isinstance(v, bool) and (k == "drive_limit" or v is not None):
+                raise ValueError(f"reference.{k} = {v!r}: must be true or false")
+        if self.smoothing_length_m is not None:
+            positive("reference.smoothing_length_m", self.smoothing_length_m, "m")
+        if self.recording is not None:
+            given = [k for k in ("closed", "smoothing_length_m") if getattr(self, k) is not None]
+            if given:
+                raise ValueError(
+                    f"reference.{given[0]} = {getattr(self, given[0])!r}: a track's setting; "
+                    f"the reference is the recording {self.recording!r} (its path as driven)")
         for k, u in (("a_lat_max", "m/s^2"), ("a_drive_max", "m/s^2"),
                      ("a_brake_max", "m/s^2"), ("v_max", "m/s"), ("mu", "-")):
             positive(f"reference.{k}", getattr(self, k), u)

@@ -608,7 +608,8 @@ def _reference(sc: Scenario, vehicle: VehicleParams) -> Reference:
 
         rec = load_recording(spec.recording).on_track()
         return rec.reference(dt=_ref_dt(sc))
-    track = load_track(spec.track, raceline=spec.line == "raceline")
+    track = load_track(spec.track, raceline=spec.line == "raceline", closed=spec.closed,
+                       smoothing_length=spec.smoothing_length_m)
     limits = SpeedLimits(a_lat_max=spec.a_lat_max, a_drive_max=spec.a_drive_max,
                          a_brake_max=spec.a_brake_max, v_max=spec.v_max, mu=spec.mu,
                          j_lat_max=spec.j_lat_max)

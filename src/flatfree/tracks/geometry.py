@@ -737,7 +737,7 @@ class Track:
                      f"({gap / spacing:.2g} median point spacings of {spacing:.3g} m), across a "
                      "closing segment that is not in the data; pass closed=False to keep the "
                      "path open, closed=True to confirm the loop (load_track, "
-                     "Track.from_points; a scenario's track file is read with this detection)")
+                     "Track.from_points; a scenario's reference.closed)")
         if closed and gap < MIN_SEGMENT_M:
             raise ValueError(f"{where(len(x) - 1)}: zero-length closing segment to the first "
                              f"point ({gap:.3g} m)")
