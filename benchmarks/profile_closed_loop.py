@@ -169,7 +169,7 @@ def _end_to_end(sc, tr) -> None:
     5 each): the reference, the flying-lap start speed, the whole prepare, the sensor noise
     drawn for the allotted duration."""
     from flatfree.sensors import SENSOR_CHANNELS
-    from flatfree.simulation import _SENSOR_BLOCKS, flying_lap_speed, reference_of
+    from flatfree.simulation import flying_lap_speed, reference_of
 
     prep = prepare(sc)
     ref = prep.reference
@@ -192,7 +192,7 @@ def _end_to_end(sc, tr) -> None:
     fly = best(lambda: flying_lap_speed(ref["s_path"], ref["vx"], prep.vehicle, closed=True))
     print(f"    flying-lap start speed           {fly * 1e3:7.1f} ms")
     noise = best(lambda: sc.effective_sensors.compile(
-        SENSOR_CHANNELS, sc.timing.control_dt_s, n_ctrl, sc.seed, blocks=_SENSOR_BLOCKS))
+        SENSOR_CHANNELS, sc.timing.control_dt_s, n_ctrl, sc.seed))
     print(f"  sensor noise                       {noise * 1e3:7.1f} ms "
           f"({n_ctrl} control steps x {len(SENSOR_CHANNELS)} channels)")
 

@@ -315,7 +315,7 @@ def test_second_order_drift_is_smooth_where_the_first_order_one_walks():
     for order in (1, 2):
         suite = SensorSuite({"y": SensorChannel(markov_std=std, markov_tau_s=tau,
                                                 markov_order=order)})
-        out[order] = suite.compile(("y",), dt, n, seed=4).noise[:, 0]
+        out[order] = suite.compile(("y",), dt, n, seed=4).noise[0]
     d1 = np.std(np.diff(out[1]))
     d2 = np.std(np.diff(out[2]))
     assert d1 == pytest.approx(math.sqrt(2.0 * (1.0 - phi)) * std, rel=0.02)
@@ -346,33 +346,50 @@ def test_drift_needs_its_correlation_time():
         SensorChannel(markov_std=0.01, markov_tau_s=0.0)
 
 
-def test_channels_appended_in_a_new_block_keep_the_earlier_noise():
-    """SensorSuite.compile ``blocks``: the engine's accelerometers (``ax``, ``ay``) came after
-    the first six channels; drawn as a second block they leave the first six channels' noise
-    (white and drift) exactly as it was for the same seed, and they get noise of their own."""
-    first = ("x", "y", "psi", "vx", "vy", "r")
-    six = {
-        "x": SensorChannel(noise_std=0.001),
+def test_a_channels_noise_is_its_own_and_drawn_in_time_order():
+    """Each channel draws from its own streams (sensors module docstring): for a given seed
+    its error sequence (white, first- and second-order drift) does not depend on the run's
+    length, the order of the names, the other channels' settings or its own other component;
+    it is the documented draw of :func:`channel_streams`."""
+    from flatfree.sensors import channel_streams
+
+    names = ("x", "y", "psi", "vx", "vy", "r", "ax", "ay")
+    chans = {
+        "x": SensorChannel(noise_std=0.001, markov_std=0.01, markov_tau_s=1.0, markov_order=2),
         "psi": SensorChannel(noise_std=0.002, markov_std=0.01, markov_tau_s=1.0),
         "r": SensorChannel(noise_std=0.003),
     }
-    old = SensorSuite(six).compile(first, 0.001, 500, seed=7)
-    suite = SensorSuite({**six, "ay": SensorChannel(noise_std=0.05)})
-    new = suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7, blocks=(6, 2))
-    np.testing.assert_array_equal(new.noise[:, :6], old.noise)
-    assert np.all(new.noise[:, 6] == 0.0)  # ax has no channel: measured exactly
-    assert np.std(new.noise[:, 7]) == pytest.approx(0.05, rel=0.15)
-    # the white noise is the seed's generator's standard normals, row-major, block by block
-    # (drawn in chunks of rows: the same sequence as one draw), then each drift
-    n = 100_000  # more rows than one chunk
-    got = SensorSuite({"x": SensorChannel(noise_std=0.5), "r": SensorChannel(noise_std=2.0)}
-                      ).compile(first, 0.001, n, seed=3).noise
-    want = np.random.default_rng(3).standard_normal((n, 6)) * [0.5, 0, 0, 0, 0, 2.0]
-    np.testing.assert_array_equal(got, want)
-    one_block = suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7)
-    assert not np.array_equal(one_block.noise[:, :6], old.noise)
-    with pytest.raises(ValueError, match=re.escape("blocks = (6, 1): sizes >= 0 summing to 8")):
-        suite.compile((*first, "ax", "ay"), 0.001, 500, seed=7, blocks=(6, 1))
+    suite = SensorSuite(chans)
+    short = suite.compile(names, 0.001, 500, seed=7).noise.T  # (steps, channels)
+    long = suite.compile(names, 0.001, 1200, seed=7).noise.T
+    np.testing.assert_array_equal(long[:500], short)  # a shorter run: the start of a longer
+    assert np.all(short[:, [1, 3, 4, 6, 7]] == 0.0)  # no channel: measured exactly
+    # another channel added, the names reordered: each channel keeps its sequence
+    more = SensorSuite({**chans, "ay": SensorChannel(noise_std=0.05)})
+    order = names[::-1]
+    rev = more.compile(order, 0.001, 500, seed=7).noise.T
+    for i, name in enumerate(names):
+        if name != "ay":
+            np.testing.assert_array_equal(rev[:, order.index(name)], short[:, i])
+    assert np.std(rev[:, order.index("ay")]) == pytest.approx(0.05, rel=0.15)
+    # the white noise is channel_streams' white standard normals times noise_std; twice the
+    # noise_std, twice the same sequence; the drift alone is the same drift
+    white, _ = channel_streams(7, "r")
+    np.testing.assert_array_equal(short[:, 5], white.standard_normal(500) * 0.003)
+    double = SensorSuite({"r": SensorChannel(noise_std=0.006)}).compile(names, 0.001, 500, 7)
+    np.testing.assert_array_equal(double.noise[5], 2.0 * short[:, 5])
+    drift_only = SensorSuite({"psi": SensorChannel(markov_std=0.01, markov_tau_s=1.0)})
+    white_psi, _ = channel_streams(7, "psi")
+    np.testing.assert_array_equal(  # (IEEE addition commutes: exact)
+        drift_only.compile(names, 0.001, 500, 7).noise[2] + white_psi.standard_normal(500)
+        * 0.002, short[:, 2])
+    # channels with the same settings get different, uncorrelated noise; another seed differs
+    same = SensorSuite({k: SensorChannel(noise_std=1.0) for k in names})
+    z = same.compile(names, 0.001, 20_000, seed=3).noise
+    corr = np.corrcoef(z)[np.triu_indices(len(names), 1)]
+    assert np.max(np.abs(corr)) < 0.04  # 20 000 samples: std of a correlation ~0.007
+    other = same.compile(names, 0.001, 20_000, seed=4).noise
+    assert np.max(np.abs(np.corrcoef(z[0], other[0])[0, 1])) < 0.04
 
 
 def test_a_delay_or_rate_the_control_clock_cannot_keep_is_said():

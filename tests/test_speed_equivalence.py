@@ -115,14 +115,14 @@ def test_actuators_equal_the_modulo_form(steer_delay, torque_delay):
 
 # ---- sensors: no division for undelayed channels sampled every step --------------------------
 def _sense_plain(k, truth, table, noise, history, held, out):
-    """sense_step before the change."""
+    """sense_step before the change (the noise as laid out now: a row per channel)."""
     depth = history.shape[1]
     for i in range(truth.shape[0]):
         history[i, k % depth] = truth[i]
         delay = int(table[i, 3])
         delayed = history[i, (k - delay) % depth] if k >= delay else history[i, 0]
         if k % int(table[i, 2]) == 0 or math.isnan(held[i]):
-            held[i] = delayed + table[i, 1] + table[i, 0] * noise[k, i]
+            held[i] = delayed + table[i, 1] + table[i, 0] * noise[i, k]
         out[i] = held[i]
 
 

@@ -37,10 +37,11 @@ specific unit):
   receiver's); ``SensorChannel(markov_std=..., markov_tau_s=..., markov_order=1 or 2)`` adds
   it as a first- or second-order Gauss-Markov drift, and ``benchmarks/rtk_drift.py`` measures
   what 1 cm of it costs (benchmarks/README.md "A slow position error": the true lateral error
-  then follows the receiver's error, 0.9-3.8 cm max for ``paper-imu`` on Norisring and Spa;
+  then follows the receiver's error, 1.0-3.5 cm max for ``paper-imu`` on Norisring and Spa;
   the algebraic design leaves the track when a first-order drift's correlation time is short,
-  whose increments are a random walk, and completes 29 of 30 runs with a smooth second-order
-  one).
+  whose increments are a random walk, and with a smooth second-order one completes every
+  Norisring run, 15 of 15, but 3 of 15 on Spa, where 2 of the same 5 seeds complete without
+  it; session 16).
 - ``psi``: dual-antenna GNSS/INS heading 0.1 deg (1 sigma) [OX] = 1.7e-3 rad, white.
 - ``vx``: wheel-speed based speed (the issue's example): 0.05 m/s (tyre radius and slip errors;
   an engineering estimate). ``vy``: INS velocity 0.02 m/s ([OX] class 0.014-0.02 m/s RMS).

@@ -13,8 +13,15 @@ names to channels. The simulation evaluates them at the controller's rate throug
   controller samples every 2 steps); a rate of ``None`` means every controller step. A sample
   that is not finite is not held (:func:`sense_step`).
 - **noise**: additive Gaussian, standard deviation ``noise_std``, drawn in advance for the whole
-  run from ``numpy.random.default_rng(seed)``: the same seed gives bit-identical runs, different
-  seeds different noise. Noise is drawn once per sample (held between samples).
+  run: the same seed gives bit-identical runs, different seeds different noise. Noise is drawn
+  once per sample (held between samples).
+- **streams** (:func:`channel_streams`): each channel draws from streams of its own, keyed by
+  the seed and the channel's name (children of ``numpy.random.SeedSequence(seed)``), one for
+  its white noise and one for its drift, each drawn in time order. So for a given seed a
+  channel's error sequence does not depend on the run's length (a 10 s run's is the first
+  10 s of a 20 s run's), on the other channels' settings, or on its own other component's:
+  doubling a ``noise_std`` doubles the same white sequence (common random numbers for
+  sensitivity studies).
 - **drift** (optional): a first-order Gauss-Markov error of stationary standard deviation
   ``markov_std`` and correlation time ``markov_tau_s``, ``b[k+1] = phi b[k] + markov_std
   sqrt(1 - phi^2) w[k]``, ``phi = exp(-dt / markov_tau_s)``, started from its stationary
@@ -40,6 +47,7 @@ Units of ``noise_std`` and ``bias`` are those of the channel's signal (SI).
 from __future__ import annotations
 
 import math
+import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -51,7 +59,8 @@ from flatfree._validate import finite, nonnegative, one_of, positive
 from flatfree._vecmath import no_refcount
 from flatfree._warn import warn
 
-__all__ = ["SENSOR_CHANNELS", "SensorChannel", "SensorSuite", "CompiledSensors", "sense_step"]
+__all__ = ["SENSOR_CHANNELS", "SensorChannel", "SensorSuite", "CompiledSensors", "sense_step",
+           "channel_streams"]
 
 #: The measured signals of the closed loop, in the order the sensors see them
 #: (:mod:`flatfree.simulation`): the names a scenario's sensor tables and measurement faults
@@ -60,8 +69,8 @@ SENSOR_CHANNELS = ("x", "y", "psi", "vx", "vy", "r", "ax", "ay")
 
 # columns of the compiled parameter table
 _NOISE, _BIAS, _PERIOD, _DELAY = 0, 1, 2, 3
-# rows of white noise drawn at a time (SensorSuite.compile)
-_CHUNK_ROWS = 1 << 15
+# the streams of a channel (channel_streams): the last entry of their spawn key
+_WHITE, _DRIFT = 0, 1
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -117,7 +126,7 @@ class CompiledSensors:
 
     names: tuple[str, ...]
     table: np.ndarray  # (n_channels, 4): 1 (noise scale), bias, period_steps, delay_steps
-    noise: np.ndarray  # (n_steps, n_channels) error sequence in the signals' units
+    noise: np.ndarray  # (n_channels, n_steps) error sequences in the signals' units
     history: np.ndarray  # (n_channels, max_delay + 1) ring buffer of true values
     held: np.ndarray  # (n_channels,) last measured value
 
@@ -156,14 +165,13 @@ class SensorSuite:
         })
 
     def compile(self, names: tuple[str, ...], dt_control: float, n_steps: int,
-                seed: int, *, blocks: tuple[int, ...] | None = None) -> CompiledSensors:
+                seed: int) -> CompiledSensors:
         """Arrays for the compiled loop, channels in the order of ``names``.
 
         A name without a channel is measured perfectly (no noise, bias, delay; every step).
-        ``blocks`` (sizes summing to ``len(names)``; default one block) splits the channels
-        into groups whose noise is drawn one group after the other from the seed's generator
-        (white, then drift): channels appended to ``names`` in a new block leave the noise of
-        the earlier ones unchanged for a given seed.
+        Each channel's error comes from its own streams (:func:`channel_streams`), so it does
+        not depend on ``n_steps`` beyond its length, on the order of ``names`` or on the other
+        channels.
         """
         dt_control = positive("dt_control", dt_control, "s")
         unknown = set(self.channels) - set(names)
@@ -194,42 +202,50 @@ class SensorSuite:
         if rounded:
             warn(f"sensors at a control period of {dt_control:g} s: {'; '.join(rounded)} "
                  "(rounded to whole control periods)")
-        if blocks is None:
-            blocks = (n,)
-        if sum(blocks) != n or any(int(b) != b or b < 0 for b in blocks):
-            raise ValueError(f"blocks = {blocks!r}: sizes >= 0 summing to {n} channels")
-        rng = np.random.default_rng(seed)
         n_steps = int(n_steps)
-        noise = np.empty((n_steps, n))
-        lo = 0
-        for size in blocks:
-            hi = lo + int(size)
-            std = np.array([ch.noise_std for ch in chans[lo:hi]])
-            # row-major standard normals of the block, drawn in chunks of rows (the same
-            # sequence as one (n_steps, size) draw, without a second array of the run's size:
-            # a 10-minute run at 1 kHz has 600 000 rows)
-            for r0 in range(0, n_steps, _CHUNK_ROWS):
-                r1 = min(r0 + _CHUNK_ROWS, n_steps)
-                noise[r0:r1, lo:hi] = rng.standard_normal((r1 - r0, hi - lo)) * std
-            for i in range(lo, hi):
-                ch = chans[i]
-                if ch.markov_std > 0.0:
-                    make = _gauss_markov if ch.markov_order == 1 else _gauss_markov2
-                    noise[:, i] += make(rng, int(n_steps), ch.markov_std,
-                                        math.exp(-dt_control / ch.markov_tau_s))
-            lo = hi
+        # a channel's sequence is a row: drawn in place (a column of a (n_steps, n) table was a
+        # strided copy of every draw, 6 of the 18 ms of a Norisring run's noise)
+        noise = np.zeros((n, n_steps))
+        for i, ch in enumerate(chans):
+            if ch.noise_std == 0.0 and ch.markov_std == 0.0:
+                continue  # nothing drawn: the other channels' streams are their own anyway
+            white, drift = channel_streams(seed, names[i])
+            if ch.noise_std > 0.0:
+                white.standard_normal(out=noise[i])
+                noise[i] *= ch.noise_std
+            if ch.markov_std > 0.0:
+                make = _gauss_markov if ch.markov_order == 1 else _gauss_markov2
+                noise[i] += make(drift, n_steps, ch.markov_std,
+                                 math.exp(-dt_control / ch.markov_tau_s))
         max_delay = int(table[:, _DELAY].max()) if n else 0
         history = np.full((n, max_delay + 1), np.nan)
         held = np.full(n, np.nan)
         return CompiledSensors(tuple(names), table, noise, history, held)
 
 
+def channel_streams(seed: int, name: str) -> tuple[np.random.Generator, np.random.Generator]:
+    """The random streams of the channel ``name`` for the run's ``seed``: (white, drift).
+
+    Children of ``numpy.random.SeedSequence(seed)`` at the spawn keys ``(crc32(name), 0)``
+    and ``(crc32(name), 1)`` (CRC-32 of the UTF-8 name: the same on every platform and
+    Python version, unlike ``hash``), each a PCG64 generator. :meth:`SensorSuite.compile`
+    draws a channel's white noise as ``white.standard_normal(n_steps)`` times ``noise_std``
+    and its drift's normals from ``drift`` (:func:`_gauss_markov`, :func:`_gauss_markov2`).
+    """
+    key = zlib.crc32(name.encode())
+    return tuple(  # type: ignore[return-value]
+        np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(key, part))))
+        for part in (_WHITE, _DRIFT))
+
+
 def _gauss_markov(rng: np.random.Generator, n: int, std: float, phi: float) -> np.ndarray:
     """A stationary first-order Gauss-Markov sequence (module docstring), via lfilter."""
     from scipy.signal import lfilter
 
-    w = rng.standard_normal(n) * (std * math.sqrt(1.0 - phi * phi))
-    w[0] = rng.standard_normal() * std  # b[0] from the stationary distribution
+    # drawn in time order (a shorter run's sequence is the start of a longer one's)
+    w = rng.standard_normal(n)
+    w[0] *= std  # b[0] from the stationary distribution
+    w[1:] *= std * math.sqrt(1.0 - phi * phi)
     return lfilter([1.0], [1.0, -phi], w)
 
 
@@ -241,12 +257,13 @@ def _gauss_markov2(rng: np.random.Generator, n: int, std: float, phi: float) -> 
 
     q = 1.0 - phi * phi
     var_s, cov_ys, var_y = 1.0 / q, 1.0 / (q * q), (1.0 + phi * phi) / (q * q * q)
-    # the state (s, y) at k = -1: s from its marginal, y from its law given s
-    s_m = rng.standard_normal() * math.sqrt(var_s)
-    y_m = (cov_ys / var_s) * s_m + rng.standard_normal() * math.sqrt(
-        var_y - cov_ys * cov_ys / var_s)
+    # drawn in time order: first the state (s, y) at k = -1, s from its marginal and y from
+    # its law given s, then the driving noise
+    z = rng.standard_normal(n + 2)
+    s_m = z[0] * math.sqrt(var_s)
+    y_m = (cov_ys / var_s) * s_m + z[1] * math.sqrt(var_y - cov_ys * cov_ys / var_s)
     scale = std / math.sqrt(var_y)
-    w = rng.standard_normal(n) * scale
+    w = z[2:] * scale
     s1, _ = lfilter([1.0], [1.0, -phi], w, zi=[phi * s_m * scale])
     y, _ = lfilter([1.0], [1.0, -phi], s1, zi=[phi * y_m * scale])
     return y
@@ -279,5 +296,5 @@ def sense_step(k, truth, table, noise, history, held, out):
             delayed = history[i, 0]  # not enough history yet: the first value
         period = int(table[i, 2])
         if period == 1 or k % period == 0 or not math.isfinite(held[i]):
-            held[i] = delayed + table[i, 1] + table[i, 0] * noise[k, i]
+            held[i] = delayed + table[i, 1] + table[i, 0] * noise[i, k]
         out[i] = held[i]

@@ -126,9 +126,6 @@ DEFAULT_HALF_WIDTH_M = 7.5
 #: Engineering choice.
 REFERENCE_DT_S = 0.01
 _N_SENS = len(SENSOR_CHANNELS)
-# the accelerometers came after the first six channels: their noise is drawn after them, so a
-# seed gives x ... r the noise it gave before (SensorSuite.compile ``blocks``)
-_SENSOR_BLOCKS = (6, 2)
 
 _STATUS = {0: Status.COMPLETED, 1: Status.LEFT_TRACK, 2: Status.NON_FINITE}
 _PYTHON = int(KIND.PYTHON)
@@ -981,7 +978,7 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     n_log = prep.n_steps // timing.log_every + 1
     try:  # the sensor noise and the log of the whole duration
         sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl,
-                                            sc.seed, blocks=_SENSOR_BLOCKS)
+                                            sc.seed)
         log = np.full((n_log, len(LOG)), np.nan)
     except MemoryError as exc:
         d = timing.duration_s
