@@ -69,6 +69,40 @@ def test_a_shorter_run_is_the_start_of_a_longer_one():
         np.testing.assert_array_equal(a[k][:200], b[k], err_msg=k)
 
 
+def test_a_rough_reference_is_warned_about():
+    """Norisring's race line has a kink at 106 m that the default profile takes at 50 m/s
+    (steady lateral jerk 34.7 m/s^3, above simulation.ROUGH_JERK = 25): the natural-output
+    design spins off at 4.45 s, noise-free, and the run warns first, naming the jerk, where,
+    and reference.j_lat_max; capped at 15 m/s^3 it neither warns nor leaves. No bundled
+    reference of the default profile warns (their largest: 21.0 m/s^3)."""
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import ROUGH_JERK, prepare
+
+    assert ROUGH_JERK == 25.0
+    sc = named_scenario("paper-noise-free", duration_s=8.0).with_settings(
+        ["reference.line=raceline"])
+    with pytest.warns(UserWarning, match=r"steady lateral jerk v\^3 \|dkappa/ds\| of 34\.7 "
+                                         r"m/s\^3 at s = 106 m \(50\.0 m/s\), above 25 m/s\^3.*"
+                                         r"reference\.j_lat_max = 15"):
+        tr = simulate(sc)
+    assert tr.status is Status.LEFT_TRACK and 4.0 < tr.status_time < 5.0
+    capped = sc.with_settings(["reference.j_lat_max=15"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tr = simulate(capped)
+    assert tr.status is Status.COMPLETED
+    from flatfree.tracks import raceline_names, track_names
+
+    for track in track_names():
+        for line in ("centerline", "raceline") if track in raceline_names() else ("centerline",):
+            with warnings.catch_warnings(record=True) as got:
+                warnings.simplefilter("always")
+                prepare(named_scenario("paper", track=track).with_settings(
+                    [f"reference.line={line}"]))
+            jerk = [str(w.message) for w in got if "lateral jerk" in str(w.message)]
+            assert bool(jerk) == (track == "Norisring" and line == "raceline"), (track, line)
+
+
 def test_noise_switch_gives_exact_measurements():
     tr = simulate(_scenario(noise=False))
     np.testing.assert_array_equal(tr["meas_vx"], tr["vx"])

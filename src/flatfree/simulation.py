@@ -110,7 +110,8 @@ from flatfree.tracks.speed import _drive_acc, _drive_array
 from flatfree.trajectory import Status, Trajectory
 from flatfree.vehicles import VehicleParams
 
-__all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "Prepared",
+__all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "ROUGH_JERK",
+           "Prepared",
            "flying_lap_speed",
            "PythonController", "RunTooLongError", "prepare", "reference_of", "simulate",
            "simulate_prepared"]
@@ -637,6 +638,34 @@ def _warn_if_beyond_steer_lock(ref: Reference, vehicle: VehicleParams) -> None:
             "the path there", UserWarning)
 
 
+#: Steady lateral jerk v^3 |dkappa/ds| [m/s^3] of a track reference above which a run of the
+#: natural-output controller warns (:func:`_warn_if_rough`). The bundled references of the
+#: default profile reach 21.0 (Norisring's centerline). The three measured above it made both
+#: natural-output designs leave on the peugeot406, noise-free, and completed with
+#: ``reference.j_lat_max`` = 15: Norisring's race line (34.7 at 106 m, at 50 m/s: they spin
+#: off at 4.4-4.5 s), and the LVMS centerline smoothed at 20 m before session 13 bridged its
+#: start (28.7: 4-6 s; tests/test_speed_jerk.py) and after (29.5 at 1071 m: ``paper`` leaves
+#: at 30.2 s). A threshold between what was seen to work and to fail (session 16,
+#: benchmarks/README.md "The noise drawn per channel"), not a property of every car.
+ROUGH_JERK = 25.0
+
+
+def _warn_if_rough(ref: Reference, sc: Scenario) -> None:
+    """Warn when a track reference asks the natural-output controller for more steady lateral
+    jerk than :data:`ROUGH_JERK` (a rough path: a kink in the data, or a light smoothing)."""
+    if sc.reference.recording is not None or sc.controller != "mfc-natural":
+        return
+    jerk = np.abs(np.asarray(ref["vx"]) ** 3 * np.asarray(ref["dkappa_ds"]))
+    if not np.isfinite(jerk).any() or np.nanmax(jerk) <= ROUGH_JERK:
+        return
+    i = int(np.nanargmax(jerk))
+    warn(f"the reference asks for a steady lateral jerk v^3 |dkappa/ds| of {jerk[i]:.1f} m/s^3 "
+         f"at s = {float(ref['s'][i]):.0f} m ({float(ref['vx'][i]):.1f} m/s), above "
+         f"{ROUGH_JERK:g} m/s^3 (a rough path: the natural-output designs left every such "
+         "reference measured); reference.j_lat_max = 15 caps it in the speed profile",
+         UserWarning)
+
+
 def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
                                   controller: str, vehicle: VehicleParams) -> None:
     """Warn when a flat-output design's reference passes the speed where the steer loses its
@@ -702,6 +731,7 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     vehicle = sc.load_vehicle()
     ref = _reference(sc, vehicle)
     _warn_if_beyond_steer_lock(ref, vehicle)
+    _warn_if_rough(ref, sc)
     _check_road(sc, ref)
     if python_controller is None:
         warn_if_untuned(sc.vehicle, sc.controller, sc.controller_settings)
