@@ -479,6 +479,8 @@ def test_demo_on_a_short_run_writes_report_and_figures(runner, tmp_path):
                                                       IMU_LABEL]
     assert [r["scenario"] for r in summary["paper"]][-1] == "paper-imu"
     assert [r["label"] for r in summary["recorded"]] == ["mfc-flat", "mfc-natural", IMU_LABEL]
+    assert [r["controller"] for r in summary["recorded"]] == ["mfc-flat", "mfc-natural",
+                                                              "mfc-natural"]
     assert all("steer_rms_vs_recorded_deg" in r for r in summary["recorded"])
 
 

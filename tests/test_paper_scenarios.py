@@ -335,7 +335,7 @@ def test_named_scenario_takes_another_car_with_its_tuning():
     with pytest.raises(ValueError, match=r"^vehicle = 3: expected a preset name or a file "
                                          r"path$"):
         named_scenario("paper", vehicle=3)
-    assert named_scenario("paper", vehicle=Path("my_car.toml")).vehicle == Path("my_car.toml")
+    assert named_scenario("paper", vehicle=Path("my_car.toml")).vehicle == "my_car.toml"  # as text
 
 
 @pytest.mark.parametrize(

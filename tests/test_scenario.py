@@ -290,7 +290,7 @@ def test_bundled_names_are_held_in_their_own_spelling(tmp_path, monkeypatch):
     # not a bundled name: as given (the loader's error names it), a Path as a Path
     assert ReferenceSpec(track="Monza2").track == "Monza2"
     assert Scenario(vehicle="PEUGEOT406.toml").vehicle == "PEUGEOT406.toml"
-    assert Scenario(vehicle=Path("my car.toml")).vehicle == Path("my car.toml")
+    assert Scenario(vehicle=Path("my car.toml")).vehicle == "my car.toml"  # its text
     # a file of that name in the current directory is what a loader reads: kept
     (tmp_path / "monza").write_text("")
     (tmp_path / "Dallara_AV21").write_text("")
@@ -395,8 +395,14 @@ def test_save_writes_file_paths_absolute_so_the_file_works_anywhere(tmp_path, mo
     assert load_scenario(back.save(tmp_path / "again.toml")) == back
     rec = Scenario(reference=ReferenceSpec(track=None, recording="lvms_23_01_04_b"))
     assert load_scenario(rec.save(tmp_path / "rec.toml")) == rec
-    # a path given as a Path is written as its text
+    # a path given as a Path is held and written as its text: the scenario equals itself read
+    # back (it held the PosixPath, which never equals the file's text)
     assert scenario_from_toml(Scenario(vehicle=Path("a.toml")).to_toml()).vehicle == "a.toml"
+    by_path = Scenario(vehicle=rw / "sub" / "mycar.toml",
+                       reference=ReferenceSpec(track=rw / "tracks" / "circle.csv"))
+    assert type(by_path.vehicle) is str and type(by_path.reference.track) is str
+    assert load_scenario(by_path.save(tmp_path / "by_path.toml")) == by_path
+    assert scenario_from_toml(by_path.to_toml()) == by_path
 
 
 # ------------------------------------------------------------------------------------------

@@ -250,8 +250,13 @@ def test_from_vehicle_takes_the_preset_limits():
     with pytest.raises(ValueError, match=r"^torque_tau = -0\.1 s: must be >= 0$"):
         ActuatorParams.from_vehicle(v, torque_tau=-0.1)
     # a road-wheel angle in radians: 40 (degrees given as radians) is refused by name
-    with pytest.raises(ValueError, match=r"^max_steer = 40\.0 rad: must lie in \[0\.0, 1\.57"):
+    with pytest.raises(ValueError, match=r"^max_steer = 40\.0 rad: must lie in \(0\.0, 1\.57"):
         ActuatorParams.from_vehicle(v, max_steer=40.0)
+    # 0 is refused, and the interval the message writes says so (it wrote [0.0, ...])
+    for bad in (0.0, -0.1):
+        with pytest.raises(ValueError, match=rf"^max_steer = {bad!r} rad: must lie in "
+                                             r"\(0\.0, 1\.5707963267948966\]$"):
+            ActuatorParams.from_vehicle(v, max_steer=bad)
 
 
 def test_gauss_markov_drift_has_its_std_and_correlation_time():

@@ -98,11 +98,14 @@ def nonnegative(name: str, value, unit: str = "") -> float:
     return v
 
 
-def in_range(name: str, value, lo: float, hi: float, unit: str = "") -> float:
-    """A finite value with lo <= value <= hi."""
+def in_range(name: str, value, lo: float, hi: float, unit: str = "", *,
+             lo_open: bool = False) -> float:
+    """A finite value with lo <= value <= hi (lo < value with ``lo_open``: the message then
+    writes the interval (lo, hi])."""
     v = finite(name, value, unit)
-    if not (lo <= v <= hi):
-        raise ValueError(f"{_fmt(name, value, unit)}: must lie in [{lo}, {hi}]")
+    if not ((lo < v if lo_open else lo <= v) and v <= hi):
+        raise ValueError(f"{_fmt(name, value, unit)}: must lie in "
+                         f"{'(' if lo_open else '['}{lo}, {hi}]")
     return v
 
 

@@ -53,9 +53,8 @@ class ActuatorParams:
     torque_delay: float = 0.0  # [s]
 
     def __post_init__(self) -> None:
-        positive("max_steer", self.max_steer, "rad")
         # a road-wheel angle (as VehicleParams'): 40 would be degrees given as radians
-        in_range("max_steer", self.max_steer, 0.0, 0.5 * math.pi, "rad")
+        in_range("max_steer", self.max_steer, 0.0, 0.5 * math.pi, "rad", lo_open=True)
         positive("max_steer_rate", self.max_steer_rate, "rad/s")
         nonnegative("steer_tau", self.steer_tau, "s")
         nonnegative("steer_delay", self.steer_delay, "s")

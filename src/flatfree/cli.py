@@ -615,11 +615,10 @@ def _simulate_collecting(sc, warned: list[str]):
     from flatfree.simulation import RunTooLongError, prepare, simulate_prepared
 
     with _collecting(warned):
-        prep = None
+        prep = prepare(sc)
         try:
-            prep = prepare(sc)
             return simulate_prepared(prep), prep.reference
-        except RunTooLongError as exc:
+        except RunTooLongError as exc:  # (raised by the run's allocations, not by prepare)
             raise ValueError(f"{exc}; {_reference_end(sc, prep.reference)}") from None
 
 
@@ -1185,7 +1184,10 @@ def _demo_runs(out_dir: Path, tasks, ref_xy, settings: Sequence[str], progress) 
                                results["mismatch"]),
                               ("Recorded reference: dallara_av21 on the LVMS recording",
                                results["recorded"])) if v})
+    # the controller too: the recorded mfc-flat run is the "recorded" scenario's, controller
+    # replaced (its name alone said mfc-natural)
     summary = {g: [{"label": r.label, "scenario": r.scenario.name,
+                    "controller": r.scenario.controller,
                     **({"error": r.error} if r.error else r.metrics.to_dict()),
                     **dict(r.extra)} for r in rs] for g, rs in results.items()}
     (out_dir / "metrics.json").write_text(json.dumps(summary, indent=2, default=str) + "\n",

@@ -166,9 +166,12 @@ def _bundled(value: Any, kind: str) -> str | None:
 
 def _canonical(value: Any, kind: str) -> Any:
     """``value`` with a bundled name in its own spelling (``"monza"``: ``"Monza"``); a value
-    naming an existing file (the loaders read it first), and anything else, as given. Looks up
-    names and asks whether the file exists; reads nothing."""
-    if not isinstance(value, (str, os.PathLike)) or os.path.isfile(value):
+    naming an existing file (the loaders read it first), and anything else, as given, a path
+    object as its text (so that a scenario equals itself read back from its TOML file). Looks
+    up names and asks whether the file exists; reads nothing."""
+    if isinstance(value, os.PathLike):
+        value = os.fspath(value)
+    if not isinstance(value, str) or os.path.isfile(value):
         return value
     name = _bundled(value, kind)
     return value if name is None else name

@@ -207,9 +207,12 @@ def _stream_many(ks, x, out):
         out[k] = fir_update(ks, x[k])
 
 
-def nonfinite_message(name: str, k: int, value: float, raise_policy: bool) -> str:
+def nonfinite_message(name: str, k: int, value: float, raise_policy: bool | None) -> str:
     """The error of a sample ``name[k] = value`` that the non-finite policy refuses ("raise",
-    or "hold" with no earlier finite sample): one text for the batch and the streaming paths."""
+    or "hold" with no earlier finite sample): one text for the batch and the streaming paths;
+    ``raise_policy`` None: a function without a policy (nothing said about one)."""
+    if raise_policy is None:
+        return f"{name}[{k}] = {value!r}: non-finite sample"
     why = "nonfinite = 'raise'" if raise_policy else (
         "nonfinite = 'hold', and no earlier finite sample to hold")
     return f"{name}[{k}] = {value!r}: non-finite sample ({why})"

@@ -279,7 +279,7 @@ class VehicleParams:
                 f"wheelbase = {self.wheelbase!r} m (tolerance {WHEELBASE_TOL_M} m)"
             )
         in_range("brake_balance_front", self.brake_balance_front, 0.0, 1.0, "-")
-        in_range("max_steer", self.max_steer, 0.0, 0.5 * math.pi, "rad")
+        in_range("max_steer", self.max_steer, 0.0, 0.5 * math.pi, "rad", lo_open=True)
         if self.cog_height >= min(self.track_front, self.track_rear):
             raise ValueError(
                 f"cog_height = {self.cog_height!r} m: must be below the track width "
