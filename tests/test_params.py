@@ -440,3 +440,19 @@ def test_errors_building_a_vehicle_from_a_file_name_the_file(tmp_path):
         load_vehicle(car)
     with pytest.raises(ValueError, match=rf"^{bad}"):
         dataclasses.replace(load_tire(_PJ), pkx1=-21.51)
+
+
+def test_bundled_files_are_parsed_once_and_callers_get_their_own_copy():
+    """The package's TOML files are parsed once per process (vehicles.params._read_toml): a
+    caller that changes the dict it got does not change what the next caller reads, and a
+    preset loads equal every time."""
+    from flatfree.vehicles import params as P
+
+    path = P.vehicle_file("peugeot406")
+    doc = P._read_toml(path, "x")
+    assert str(path) in P._BUNDLED_DOCS
+    doc["params"]["mass"]["value"] = -1.0
+    doc.clear()
+    again = P._read_toml(path, "x")
+    assert again["params"]["mass"]["value"] > 0.0
+    assert load_vehicle("peugeot406") == load_vehicle("PEUGEOT406")

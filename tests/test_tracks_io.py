@@ -463,3 +463,37 @@ def test_bridge_closure_refuses_a_stretch_it_cannot_bridge():
         bridge_closure(x, y[:-1], 40.0, 50.0)
     with pytest.raises(ValueError, match=r"^x \(shape \(\d+,\)\): expected real numbers"):
         bridge_closure(["a"] * x.size, y, 40.0, 50.0)
+
+
+def test_a_bundled_track_is_built_once_and_a_file_of_its_name_is_still_the_file(tmp_path,
+                                                                               monkeypatch):
+    """load_track caches bundled tracks per process (a Track is immutable): the same arguments
+    give the same object, equal to one built afresh; other arguments another; a file in the
+    current directory named like a bundled track is read as that file (the loaders' rule), not
+    taken from the cache."""
+    from flatfree.tracks.loaders import _build_track
+
+    a = T.load_track("Norisring")
+    assert T.load_track(" norisring ") is a
+    fresh = _build_track("Norisring", False, None, T.DEFAULT_DS, None)
+    np.testing.assert_array_equal(a.geometry, fresh.geometry)
+    assert (a.name, a.closed, a.source) == (fresh.name, fresh.closed, fresh.source)
+    assert not a.geometry.flags.writeable
+    smooth = T.load_track("Norisring", smoothing_length=60.0)
+    assert smooth is not a and smooth.length != a.length
+    assert T.load_track("Norisring", raceline=True).name == "Norisring raceline"
+    # a user's Norisring.csv in the current directory: the file, shifted 1 km east
+    monkeypatch.chdir(tmp_path)
+    src = DATA / "tracks" / "Norisring.csv"
+    lines = src.read_text().splitlines()
+    out = []
+    for line in lines:
+        if line.startswith("#") or not line.strip():
+            out.append(line)
+            continue
+        x, rest = line.split(",", 1)
+        out.append(f"{float(x) + 1000.0},{rest}")
+    (tmp_path / "Norisring.csv").write_text("\n".join(out) + "\n")
+    mine = T.load_track("Norisring.csv")
+    assert mine is not a
+    np.testing.assert_allclose(mine.geometry[:, 1] - 1000.0, a.geometry[:, 1], atol=1e-6)

@@ -8,6 +8,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -298,6 +299,27 @@ def load_track(
     The bundled centerlines derive from OpenStreetMap data: credit "(c) OpenStreetMap
     contributors" (data/tracks/PROVENANCE.md). Licenses: LGPL-3.0 (tracks), GPL-3.0 (recording).
     """
+    if not Path(name_or_path).is_file():  # a file is read as the file (module docstring)
+        name = _io.bundled_name(name_or_path, "raceline" if raceline else "track")
+        try:  # (an unhashable argument is the builder's to refuse, naming it)
+            key = hash((closed, ds, smoothing_length))
+        except TypeError:
+            key = None
+        if name is not None and key is not None:
+            return _bundled_track(name, raceline, closed, ds, smoothing_length)
+    return _build_track(name_or_path, raceline, closed, ds, smoothing_length)
+
+
+def _build_track(name_or_path, raceline, closed, ds, smoothing_length) -> Track:
     pts = read_track_points(name_or_path, raceline=raceline)
     return pts.to_track(closed=closed, ds=ds, smoothing_length=smoothing_length,
                         name=f"{pts.name} raceline" if raceline else None)
+
+
+@functools.lru_cache(maxsize=64)
+def _bundled_track(name: str, raceline: bool, closed, ds, smoothing_length) -> Track:
+    """A bundled track, built once per process for each set of arguments: the package's files
+    do not change under a running process, and a Track is immutable (frozen, its geometry
+    read-only), so every caller may share it. Building one (reading, smoothing, the spline,
+    the resampling) took 7 ms of the 13 ms that prepared a Norisring run (session 16)."""
+    return _build_track(name, raceline, closed, ds, smoothing_length)
