@@ -807,3 +807,22 @@ def test_switching_to_the_natural_output_controller_takes_the_car_s_tuning():
         assert sc.controller_settings == DALLARA_NATURAL_SETTINGS
         assert build_scenario(base, controller="mfc-natural").controller_settings == \
             NATURAL_SETTINGS
+
+
+def test_track_and_recording_options_drop_the_old_files_shape_settings(tmp_path):
+    """A scenario file whose reference sets closed / smoothing_length_m (its track file's
+    shape): --recording used to fail ("a track's setting") with no way to clear them, and
+    --track kept another file's shape; both now drop them, and a --set gives them anew."""
+    from flatfree.cli import build_scenario
+    from flatfree.scenario import ReferenceSpec, Scenario
+
+    f = tmp_path / "mine.toml"
+    Scenario(reference=ReferenceSpec(track="Monza", closed=True, smoothing_length_m=30.0)
+             ).save(f)
+    rec = build_scenario(str(f), recording="LVMS_23_01_04_B")
+    assert rec.reference.recording == "LVMS_23_01_04_B"
+    assert (rec.reference.closed, rec.reference.smoothing_length_m) == (None, None)
+    spa = build_scenario(str(f), track="Spa", settings=["reference.smoothing_length_m=40"])
+    assert (spa.reference.track, spa.reference.closed,
+            spa.reference.smoothing_length_m) == ("Spa", None, 40.0)
+    assert build_scenario(str(f)).reference.smoothing_length_m == 30.0  # the file's, kept

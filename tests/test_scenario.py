@@ -227,10 +227,16 @@ def test_a_tracks_shape_and_smoothing_are_reference_settings(tmp_path):
                                                            smoothing_length_m=60.0)))
     want = load_track("Norisring", smoothing_length=60.0)
     assert smooth.path.length == want.length != load_track("Norisring").length
+    assert ReferenceSpec(smoothing_length_m=0).smoothing_length_m == 0  # the points as given
+    # another track or a recording drops the old file's settings, unless set with it
+    rec = sc.with_settings(["reference.recording=LVMS_23_01_04_B"])
+    assert (rec.reference.closed, rec.reference.smoothing_length_m) == (None, None)
+    other = sc.with_settings(["reference.smoothing_length_m=30", "reference.track=Monza"])
+    assert (other.reference.closed, other.reference.smoothing_length_m) == (None, 30.0)
     for bad, msg in ((dict(closed="yes"), r"^reference.closed = 'yes': must be true or false$"),
                      (dict(closed=1), r"^reference.closed = 1: must be true or false$"),
-                     (dict(smoothing_length_m=0.0),
-                      r"^reference.smoothing_length_m = 0.0 m: must be > 0$"),
+                     (dict(smoothing_length_m=-1.0),
+                      r"^reference.smoothing_length_m = -1.0 m: must be >= 0$"),
                      (dict(smoothing_length_m=math.nan),
                       r"^reference.smoothing_length_m = nan m: must be finite$"),
                      (dict(track=None, recording="LVMS_23_01_04_B", closed=False),

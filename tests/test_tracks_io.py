@@ -497,3 +497,21 @@ def test_a_bundled_track_is_built_once_and_a_file_of_its_name_is_still_the_file(
     mine = T.load_track("Norisring.csv")
     assert mine is not a
     np.testing.assert_allclose(mine.geometry[:, 1] - 1000.0, a.geometry[:, 1], atol=1e-6)
+
+
+def test_the_track_cache_does_not_skip_the_builders_checks_or_share_a_writeable_array():
+    """Review finds: an argument equal to a cached key (np.float32(0.5) == 0.5, True == 1) was
+    served from the cache without the builder's check that refuses it; a read-only geometry
+    could be made writeable again and change the track every caller shares."""
+    import numpy as np
+
+    T.load_track("Monza", ds=0.5)
+    with pytest.raises(ValueError, match=r"^ds = np\.float32\(0\.5\) m: must be a finite "):
+        T.load_track("Monza", ds=np.float32(0.5))
+    a = T.load_track("Monza")
+    with pytest.raises(ValueError, match="cannot set WRITEABLE flag"):
+        a.geometry.flags.writeable = True
+    assert not T.Track(name="x", closed=a.closed, geometry=a.geometry).geometry.flags.writeable
+    mine = np.array(a.geometry)  # a caller's own array stays the caller's: writeable
+    T.Track(name="y", closed=a.closed, geometry=mine)
+    assert mine.flags.writeable

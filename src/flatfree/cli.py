@@ -562,12 +562,15 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if cr_scale is not None:
             ctrl_settings["cr_scale"] = cr_scale
         changes["controller_settings"] = ctrl_settings
+        # a new track or a recording: the old file's shape settings go (reference.closed,
+        # smoothing_length_m; a --set after this may give them for the new one)
+        fresh = {"closed": None, "smoothing_length_m": None}
         if track is not None:
             changes["reference"] = dataclasses.replace(sc.reference, track=track,
-                                                       recording=None)
+                                                       recording=None, **fresh)
         if recording is not None:
             changes["reference"] = dataclasses.replace(sc.reference, track=None,
-                                                       recording=recording)
+                                                       recording=recording, **fresh)
         if vehicle is not None:
             # a file's or a recorded scenario's car, with its tuning as below (the description
             # is the file's own); a named track scenario has it already (_load_base): no change

@@ -208,8 +208,8 @@ class ReferenceSpec:
     #: (default, omitted in TOML) detects it from the file (a closing repeat of the first
     #: point, or the ends within 3 point spacings)
     closed: bool | None = None
-    #: the track's smoothing cut-off wavelength [m] (tracks.load_track); None (default): the
-    #: loader's (20 m; 60 m for the LVMS centerline built from its bounds)
+    #: the track's smoothing cut-off wavelength [m] (tracks.load_track; 0: none); None
+    #: (default): the loader's (20 m; 60 m for the LVMS centerline built from its bounds)
     smoothing_length_m: float | None = None
 
     def __post_init__(self) -> None:
@@ -230,8 +230,8 @@ class ReferenceSpec:
             v = getattr(self, k)
             if not isinstance(v, bool) and (k == "drive_limit" or v is not None):
                 raise ValueError(f"reference.{k} = {v!r}: must be true or false")
-        if self.smoothing_length_m is not None:
-            positive("reference.smoothing_length_m", self.smoothing_length_m, "m")
+        if self.smoothing_length_m is not None:  # 0: the points as given (load_track)
+            nonnegative("reference.smoothing_length_m", self.smoothing_length_m, "m")
         if self.recording is not None:
             given = [k for k in ("closed", "smoothing_length_m") if getattr(self, k) is not None]
             if given:
@@ -759,6 +759,11 @@ def _scenario_from_doc(doc: dict[str, Any], where: _Where,
     return sc
 
 
+#: The reference settings that describe a track file (ReferenceSpec): dropped when the track
+#: or the recording is replaced (scenario_with_settings, the CLI's --track and --recording).
+_TRACK_FILE_KEYS = ("closed", "smoothing_length_m")
+
+
 def _reference_values(reference: dict) -> dict:
     ref = dict(reference)
     if "recording" in ref and "track" not in ref:
@@ -910,10 +915,13 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
                              "(number, boolean, string, array or table)") from None
         node[key] = value
     # a track replaces the recording and a recording the track (as --track, --recording do),
-    # unless both are set
+    # unless both are set; the settings that describe the old track's file go with it (a
+    # recording refuses them, another file has its own shape) unless set here too
     other = {("reference", "track"): "recording", ("reference", "recording"): "track"}
-    if path in other and ("reference", other[path]) not in explicit:
-        node.pop(other[path], None)
+    if path in other:
+        for k in (other[path], *_TRACK_FILE_KEYS):
+            if ("reference", k) not in explicit:
+                node.pop(k, None)
 
 
 def _culprits(items: list[_Setting], fld: str | None) -> list[_Setting]:

@@ -643,8 +643,11 @@ class Track:
         w = g[:, [_WL, _WR]]
         if (w[~np.isnan(w)] < 0.0).any():
             raise ValueError("geometry: negative track width")
+        # locked: a copy of its own (not the caller's array), read-only, held through a view,
+        # whose flag cannot be set back (bundled Tracks are shared: tracks.load_track)
+        g = g.copy()
         g.setflags(write=False)
-        object.__setattr__(self, "geometry", g)
+        object.__setattr__(self, "geometry", g.view())
         object.__setattr__(self, "closed", bool(self.closed))
 
     # -- construction ------------------------------------------------------------------------

@@ -347,14 +347,15 @@ def tire_names() -> list[str]:
 
 
 #: The package's own TOML files, parsed once per process (they do not change under a running
-#: process; parsing the peugeot406 and its two tyre files took ~2 ms of each run's prepare).
+#: process: an edit of a preset in an editable install is seen by the next process; parsing
+#: the peugeot406 and its two tyre files took ~2 ms of each run's prepare).
 _BUNDLED_DOCS: dict[str, dict] = {}
 
 
 def _read_toml(path_or_resource, what: str) -> dict:
     """The parsed TOML file (a fresh dict: the caller may change it)."""
     key = str(path_or_resource)
-    bundled = key.startswith(str(_DATA))
+    bundled = Path(key).resolve().is_relative_to(Path(str(_DATA)).resolve())
     if bundled and key in _BUNDLED_DOCS:
         return copy.deepcopy(_BUNDLED_DOCS[key])
     try:
