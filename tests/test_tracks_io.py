@@ -515,3 +515,31 @@ def test_the_track_cache_does_not_skip_the_builders_checks_or_share_a_writeable_
     mine = np.array(a.geometry)  # a caller's own array stays the caller's: writeable
     T.Track(name="y", closed=a.closed, geometry=mine)
     assert mine.flags.writeable
+
+
+def test_a_smoothing_that_distorts_the_path_is_said_and_one_that_erases_it_refused(tmp_path):
+    """A user's review: reference.smoothing_length_m = 5000 shrank Norisring (2296 m) to 3.5 m
+    and 1e6 to nothing, without a word. Above a quarter of the path it is refused, naming the
+    value and the path's length; where it shortens the path by more than 2 % it is said
+    (Norisring at 200 m: 2296 -> 2208 m); the default, 20 m, moves it by 0.02 %."""
+    with pytest.raises(ValueError, match=r"^smoothing_length = 1000\.0 m: longer than a quarter "
+                                         r"of the path \(2296 m\), whose shape it would smooth "
+                                         r"away \(a scenario's reference\.smoothing_length_m\)$"):
+        T.load_track("Norisring", smoothing_length=1000.0)
+    with pytest.warns(UserWarning, match=r"smoothing_length = 200 m shortens the path from 2296 "
+                                         r"m to 2208 m \(3\.8 %\)"):
+        T.load_track("Norisring", smoothing_length=200.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        T.load_track("Norisring", smoothing_length=100.0)  # 1.1 %: not said
+
+
+def test_a_forced_loop_across_a_gap_is_said(tmp_path):
+    """closed=True joined a road's ends 1.5 km apart into a loop silently (a user's review):
+    said when the closing segment spans 3 or more point spacings, as the detection's rule."""
+    x = np.arange(0.0, 1501.0, 10.0)
+    f = tmp_path / "straight.csv"
+    f.write_text("x,y\n" + "".join(f"{v:.1f},{0.01 * v:.3f}\n" for v in x))
+    with pytest.warns(UserWarning, match=r"^straight \(.*\): closed=True joins its end to its "
+                                         r"start across 1\.5e\+03 m"):
+        T.load_track(f, closed=True, smoothing_length=0.0)

@@ -331,7 +331,8 @@ j_lat_max = inf             # lateral jerk v^3 |dkappa/ds| [m/s^3]; inf: no limi
                             # most: Spa, 0.13 %)
 drive_limit = false         # true: also within the car's drive limit (power, torque, drag)
 # closed = false            # a track file: open road (false) or loop (true); default: detected
-# smoothing_length_m = 20.0 # a track's smoothing cut-off wavelength [m]; default 20 (LVMS 60)
+# smoothing_length_m = 20.0 # a track's smoothing cut-off wavelength [m], 0: none; default
+                            # 20 (LVMS 60)
 
 [timing]
 plant_dt_s = 0.001          # plant RK4 step
@@ -415,7 +416,9 @@ def scenario_new(file: Path, from_name: str | None, force: bool) -> None:
     """Write a scenario to FILE, to edit and run with `flatfree run FILE`.
 
     Without --from: a template with every key commented, the values of the named scenario
-    `paper`. With --from NAME: the named scenario NAME, every key set, without comments.
+    `paper`. With --from NAME: the named scenario NAME, every key set, without comments
+    (keys left at their default of None, such as reference.closed, are omitted: the template
+    shows them).
     """
     text = SCENARIO_TEMPLATE
     if from_name is not None:
@@ -765,8 +768,10 @@ usage or input.""")
 @_CONTROL_PERIOD
 @click.option("--set", "settings", multiple=True, metavar="FIELD=VALUE",
               help="Set a scenario field by its dotted path, e.g. reference.j_lat_max=15, "
-                   "sensors.y.markov_order=2, controller_settings.alpha_lat=40 (repeatable; "
-                   "applied after the other options, so it wins over them).")
+                   "reference.closed=false (a track file's shape; --track and --recording "
+                   "drop it), reference.smoothing_length_m=40, sensors.y.markov_order=2, "
+                   "controller_settings.alpha_lat=40 (repeatable; applied after the other "
+                   "options, so it wins over them).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print exactly one JSON object (metrics and settings) on stdout.")
 def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale, noise, seed,

@@ -659,11 +659,11 @@ def _warn_if_rough(ref: Reference, sc: Scenario) -> None:
     if not np.isfinite(jerk).any() or np.nanmax(jerk) <= ROUGH_JERK:
         return
     i = int(np.nanargmax(jerk))
-    warn(f"the reference asks for a steady lateral jerk v^3 |dkappa/ds| of {jerk[i]:.1f} m/s^3 "
-         f"at s = {float(ref['s'][i]):.0f} m ({float(ref['vx'][i]):.1f} m/s), above "
-         f"{ROUGH_JERK:g} m/s^3 (a rough path: the natural-output designs left every such "
-         "reference measured); reference.j_lat_max = 15 caps it in the speed profile",
-         UserWarning)
+    warn(f"the path may be too rough for the natural-output controller: its reference asks "
+         f"for a steady lateral jerk v^3 |dkappa/ds| of {jerk[i]:.1f} m/s^3 at s = "
+         f"{float(ref['s'][i]):.0f} m ({float(ref['vx'][i]):.1f} m/s), above {ROUGH_JERK:g} "
+         "m/s^3, and the car left the track on every such reference tested; a speed profile "
+         "with reference.j_lat_max = 15 (--set reference.j_lat_max=15) caps it", UserWarning)
 
 
 def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,

@@ -81,6 +81,11 @@ DEFAULT_SMOOTHING_LENGTH = 20.0
 #: Order of the zero-phase low-pass H(f) = 1 / (1 + (f lambda_c)^(2n)), n = 4 (Butterworth magnitude
 #: shape squared); a circle of radius R passes with gain 1 - (lambda_c / 2 pi R)^8.
 _FILTER_ORDER = 4
+#: Relative shortening of a path by its smoothing above which :meth:`Track.from_points` warns:
+#: the bundled tracks and race lines change by at most 0.02 % at their cut-offs; Norisring
+#: passes 2 % at a cut-off of ~180 m (its hairpins' curvature then rises: 0.101 1/m at the
+#: default 20 m, 0.121 at 100 m) and Spa at ~300 m. Engineering choice (session 16).
+_SMOOTH_SHRINK_WARN = 0.02
 #: ``closed=None`` closes a path whose end is less than this many median point spacings from its
 #: start (the TUMFTM files end one spacing before their first point, PROVENANCE.md).
 _CLOSE_GAP_SPACINGS = 3.0
@@ -731,11 +736,16 @@ class Track:
                 )
             closed = True
         gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
+        spacing = float(np.median(np.hypot(np.diff(x), np.diff(y))))
+        what = f"{name} ({source})" if name and source and name != source else src
+        if closed is True and not repeat and gap >= _CLOSE_GAP_SPACINGS * spacing:
+            warn(f"{what}: closed=True joins its end to its start across {gap:.3g} m "
+                 f"({gap / spacing:.2g} median point spacings of {spacing:.3g} m), a closing "
+                 "segment that is not in the data (load_track, Track.from_points; a scenario's "
+                 "reference.closed)")
         if closed is None:
-            spacing = float(np.median(np.hypot(np.diff(x), np.diff(y))))
             closed = gap < _CLOSE_GAP_SPACINGS * spacing
             if closed and gap > _CLOSE_WARN_SPACINGS * spacing:
-                what = f"{name} ({source})" if name and source and name != source else src
                 warn(f"{what}: closed into a loop because its end is {gap:.3g} m from its start "
                      f"({gap / spacing:.2g} median point spacings of {spacing:.3g} m), across a "
                      "closing segment that is not in the data; pass closed=False to keep the "
@@ -747,7 +757,19 @@ class Track:
         extent = max(np.ptp(x), np.ptp(y))
         if ds > extent:
             raise ValueError(f"ds = {ds!r} m: larger than the path extent ({extent:.3g} m)")
+        raw = float(np.hypot(np.diff(x), np.diff(y)).sum()) + (gap if closed else 0.0)
+        if smoothing_length > raw / 4.0:
+            raise ValueError(
+                f"smoothing_length = {smoothing_length!r} m: longer than a quarter of the path "
+                f"({raw:.4g} m), whose shape it would smooth away (a scenario's "
+                "reference.smoothing_length_m)")
         g = _build_geometry(x, y, wl, wr, bool(closed), float(ds), float(smoothing_length))
+        if g[-1, _S] < (1.0 - _SMOOTH_SHRINK_WARN) * raw:
+            warn(f"{what}: smoothing_length = {smoothing_length:g} m shortens the path from "
+                 f"{raw:.4g} m to {g[-1, _S]:.4g} m ({100.0 * (1.0 - g[-1, _S] / raw):.2g} %): "
+                 "the low-pass cuts its corners and tightens its hairpins; a shorter cut-off "
+                 "keeps its shape (load_track's smoothing_length; a scenario's "
+                 "reference.smoothing_length_m)")
         return cls(name=name, closed=bool(closed), geometry=g, source=src)
 
     # -- columns -----------------------------------------------------------------------------
