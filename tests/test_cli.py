@@ -655,6 +655,16 @@ def test_run_out_prints_the_steer_lock_warning_once(runner, tmp_path):
     assert res.stderr.count("the reference's tightest curve") == 1, res.stderr
     assert res.stderr.startswith("warning: the reference's tightest curve (radius")
     assert [str(w.message) for w in caught] == []
+    # and it goes with the run's numbers: the JSON, metrics.json and the report's notes
+    # (stderr is not kept; a user's review found it nowhere in the run's folder)
+    out = json.loads(res.stdout)
+    assert out["warnings"][0].startswith("the reference's tightest curve (radius 9.")
+    saved = json.loads((tmp_path / "o" / "metrics.json").read_text())
+    assert saved["warnings"] == out["warnings"]
+    html = (tmp_path / "o" / "report.html").read_text()
+    assert "warning: the reference&#x27;s tightest curve (radius 9." in html  # escaped
+    quiet = json.loads(_invoke(runner, ["run", "--duration", "0.5", "--json"]).stdout)
+    assert "warnings" not in quiet  # only when there are some
 
 
 def test_run_builds_the_reference_once(runner, tmp_path, monkeypatch):

@@ -643,17 +643,19 @@ def _reference_end(sc, ref) -> str:
     return f"a run ends where its reference path ends ({what}); {more}"
 
 
-def _simulate(sc):
+def _simulate(sc, warned: list[str]):
     """:func:`_simulate_collecting` (trajectory, reference); a ValueError (bad input,
     unsupported feature) becomes exit code 2, and the library's warnings are printed as one
-    line each on stderr, ``warning: ...``."""
-    warned: list[str] = []
+    line each on stderr, ``warning: ...``, and appended to ``warned`` (for the run's
+    metrics.json and report)."""
+    new: list[str] = []
     try:
-        out = _simulate_collecting(sc, warned)
+        out = _simulate_collecting(sc, new)
     except ValueError as exc:
         raise _fail(f"scenario {sc.name!r}, controller {sc.controller}: {exc}") from None
-    for w in warned:
+    for w in new:
         _err(f"warning: {w}")
+    warned.extend(new)
     return out
 
 
@@ -801,7 +803,8 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         _err(f"note: {' and '.join(given)} {verb} no effect: {why}")
     with _out_dir(out_dir):
         # the reference the run was built on, for the notes, the recorded steer and the figures
-        tr, reference = _simulate(sc)
+        warned: list[str] = []
+        tr, reference = _simulate(sc, warned)
         _note_short_or_capped(sc, tr, reference)
         with _collecting([]):  # its one warning (every metric NaN) is this command's own note
             m = compute_metrics(tr, startup_s=sc.timing.startup_s)
@@ -814,6 +817,8 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         result = RunResult(label=sc.controller, scenario=sc, trajectory=tr, metrics=m,
                            extra=extra)
         payload = _run_json(sc, tr, m, extra)
+        if warned:  # what the run warned about goes with its numbers (stderr is not kept)
+            payload["warnings"] = warned
         if out_dir is not None:
             _write_run(out_dir, result, payload, reference, rec)
             if with_csv:
@@ -882,7 +887,8 @@ def _write_run(out_dir: Path, result, payload: dict[str, Any], reference,
     for stem, caption, draw in _run_figures(runs, ref_xy, rec):
         figs.append((caption, _draw(out_dir / "figures", stem, draw)))
     write_report(out_dir / "report.html", [result], figs,
-                 title=f"flatfree run: {sc.name}, {sc.controller}")
+                 title=f"flatfree run: {sc.name}, {sc.controller}",
+                 notes=[f"warning: {w}" for w in payload.get("warnings", [])])
 
 
 def _draw(folder: Path, stem: str, draw: Callable) -> Path:
