@@ -442,17 +442,15 @@ def test_errors_building_a_vehicle_from_a_file_name_the_file(tmp_path):
         dataclasses.replace(load_tire(_PJ), pkx1=-21.51)
 
 
-def test_bundled_files_are_parsed_once_and_callers_get_their_own_copy():
-    """The package's TOML files are parsed once per process (vehicles.params._read_toml): a
-    caller that changes the dict it got does not change what the next caller reads, and a
-    preset loads equal every time."""
-    from flatfree.vehicles import params as P
-
-    path = P.vehicle_file("peugeot406")
-    doc = P._read_toml(path, "x")
-    assert str(path) in P._BUNDLED_DOCS
-    doc["params"]["mass"]["value"] = -1.0
-    doc.clear()
-    again = P._read_toml(path, "x")
-    assert again["params"]["mass"]["value"] > 0.0
-    assert load_vehicle("peugeot406") == load_vehicle("PEUGEOT406")
+def test_a_preset_is_read_once_and_overrides_leave_it_alone(tmp_path):
+    """A bundled preset is read once per process (vehicles.params._preset) and shared: the same
+    object in any spelling; overrides make a new one and leave the shared preset as it was; a
+    file is read on every call (a changed file is seen)."""
+    a = load_vehicle("peugeot406")
+    assert load_vehicle(" PEUGEOT406 ") is a
+    heavier = load_vehicle("peugeot406", mass=a.mass + 100.0)
+    assert heavier.mass == a.mass + 100.0 and load_vehicle("peugeot406").mass == a.mass
+    car = _write(tmp_path, _preset_text())
+    assert load_vehicle(car) == a and load_vehicle(car) is not a
+    car.write_text(_preset_text().replace("value = 1500.0", "value = 1510.0", 1))
+    assert load_vehicle(car).mass == 1510.0

@@ -328,7 +328,7 @@ v_max = 50.0                # [m/s]
 mu = 1.0                    # friction the speed profile plans with [-]
 j_lat_max = inf             # lateral jerk v^3 |dkappa/ds| [m/s^3]; inf: no limit; 15.0 keeps
                             # a rough path drivable (costs a bundled track's lap 0.31 s at
-                            # most: Spa, 0.13 %)
+                            # most: Spa, 0.12 %)
 drive_limit = false         # true: also within the car's drive limit (power, torque, drag)
 # closed = false            # a track file: open road (false) or loop (true); default: detected
 # smoothing_length_m = 20.0 # a track's smoothing cut-off wavelength [m], 0: none; default
@@ -546,7 +546,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     ``Monza``; :class:`~flatfree.scenario.Scenario`). Raises :class:`InputError` (exit 2) on
     bad input.
     """
-    from flatfree.scenario import scenario_with_settings
+    from flatfree.scenario import _TRACK_FILE_KEYS, scenario_with_settings
 
     if track is not None and recording is not None:
         raise _fail("give --track or --recording, not both")
@@ -565,9 +565,9 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if cr_scale is not None:
             ctrl_settings["cr_scale"] = cr_scale
         changes["controller_settings"] = ctrl_settings
-        # a new track or a recording: the old file's shape settings go (reference.closed,
-        # smoothing_length_m; a --set after this may give them for the new one)
-        fresh = {"closed": None, "smoothing_length_m": None}
+        # a new track or a recording: the old file's shape settings go (as a --set of the
+        # track or recording drops them; a --set after this may give them for the new one)
+        fresh = dict.fromkeys(_TRACK_FILE_KEYS)
         if track is not None:
             changes["reference"] = dataclasses.replace(sc.reference, track=track,
                                                        recording=None, **fresh)
@@ -646,16 +646,14 @@ def _reference_end(sc, ref) -> str:
 def _simulate(sc, warned: list[str]):
     """:func:`_simulate_collecting` (trajectory, reference); a ValueError (bad input,
     unsupported feature) becomes exit code 2, and the library's warnings are printed as one
-    line each on stderr, ``warning: ...``, and appended to ``warned`` (for the run's
-    metrics.json and report)."""
-    new: list[str] = []
+    line each on stderr, ``warning: ...``, and appended to ``warned`` (an empty list: for the
+    run's metrics.json and report)."""
     try:
-        out = _simulate_collecting(sc, new)
+        out = _simulate_collecting(sc, warned)
     except ValueError as exc:
         raise _fail(f"scenario {sc.name!r}, controller {sc.controller}: {exc}") from None
-    for w in new:
+    for w in warned:
         _err(f"warning: {w}")
-    warned.extend(new)
     return out
 
 

@@ -226,14 +226,15 @@ class ReferenceSpec:
         _choice("reference.line", self.line, LINES)
         finite("reference.lateral_offset_m", self.lateral_offset_m, "m")
         whole("reference.laps", self.laps, 1)
-        for k in ("drive_limit", "closed"):
-            v = getattr(self, k)
-            if not isinstance(v, bool) and (k == "drive_limit" or v is not None):
-                raise ValueError(f"reference.{k} = {v!r}: must be true or false")
+        if not isinstance(self.drive_limit, bool):
+            raise ValueError(f"reference.drive_limit = {self.drive_limit!r}: must be true or "
+                             "false")
+        if self.closed is not None and not isinstance(self.closed, bool):
+            raise ValueError(f"reference.closed = {self.closed!r}: must be true or false")
         if self.smoothing_length_m is not None:  # 0: the points as given (load_track)
             nonnegative("reference.smoothing_length_m", self.smoothing_length_m, "m")
         if self.recording is not None:
-            given = [k for k in ("closed", "smoothing_length_m") if getattr(self, k) is not None]
+            given = [k for k in _TRACK_FILE_KEYS if getattr(self, k) is not None]
             if given:
                 raise ValueError(
                     f"reference.{given[0]} = {getattr(self, given[0])!r}: a track's setting; "

@@ -176,9 +176,12 @@ IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_dampi
                                               "denoise_yaw": 20}
 
 
+# the natural-output settings of each car they were tuned on (natural_settings)
+_NATURAL_BY_CAR = {"peugeot406": NATURAL_SETTINGS, "dallara_av21": DALLARA_NATURAL_SETTINGS}
+
 #: The cars each model-free design's settings were tuned on (its alpha_lat is tied to the car:
 #: MfcNaturalSettings, MfcFlatSettings); any other car runs the peugeot406's settings.
-TUNED_VEHICLES: dict[str, tuple[str, ...]] = {"mfc-natural": ("peugeot406", "dallara_av21"),
+TUNED_VEHICLES: dict[str, tuple[str, ...]] = {"mfc-natural": tuple(_NATURAL_BY_CAR),
                                              "mfc-flat": ("peugeot406",)}
 
 
@@ -210,8 +213,7 @@ def natural_settings(vehicle: str, *, imu: bool = False) -> dict[str, float | in
     :func:`flatfree.vehicles.params.bundled_name`), :data:`NATURAL_SETTINGS` (the
     peugeot406's, measured) for any other car; with ``imu`` overlaid by :data:`IMU_SETTINGS`.
     alpha_lat is the setting tied to the car."""
-    dallara = bundled_name(vehicle) == "dallara_av21"
-    base = DALLARA_NATURAL_SETTINGS if dallara else NATURAL_SETTINGS
+    base = _NATURAL_BY_CAR.get(bundled_name(vehicle), NATURAL_SETTINGS)
     return {**base, **(IMU_SETTINGS if imu else {})}
 
 _BASE = {

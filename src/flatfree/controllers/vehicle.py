@@ -975,13 +975,14 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # reference.lateral_offset_m; it was the path's own, so the flat-output designs drove
         # the path instead of the offset line)
         e_line = meas[6] - cref[5]
+        v_out = max(meas[3], _OUTER_V_MIN)
         # ... and its heading: the line turns from the path's tangent by e_y_ref' / v
-        e_psi_line = meas[7] - cref[6] / max(meas[3], _OUTER_V_MIN)
+        e_psi_line = meas[7] - cref[6] / v_out
         zeta = coef[9]
         if coef[11] != 0.0:  # integral action: integrate e_y / v, triple pole (zeta unused)
             zeta = 0.0
             if math.isfinite(e_line) and math.isfinite(meas[3]):
-                coef[13] += coef[12] * e_line / max(meas[3], _OUTER_V_MIN)
+                coef[13] += coef[12] * e_line / v_out
         dr = path_correction(meas[3], meas[4], e_line, e_psi_line, coef[8], zeta, coef[13])
         if coef[10] != 0.0:
             dr += cref[10]

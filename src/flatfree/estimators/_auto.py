@@ -39,7 +39,7 @@ import numpy as np
 from numpy.polynomial import legendre as _leg
 
 from flatfree._validate import finite, nonnegative, positive, real_array, whole
-from flatfree.estimators._fir import nonfinite_message
+from flatfree.estimators._fir import check_finite
 from flatfree.estimators._fweights import _check_dt
 from flatfree.estimators._jacobi import JacobiDesign, _fit_operator
 
@@ -264,9 +264,7 @@ def signal_std_estimate(y, noise_std: float) -> float:
     y = real_array("y", y)
     if y.ndim != 1 or y.size < 3:
         raise ValueError(f"y: expected a 1-D record of at least 3 samples, got shape {y.shape}")
-    bad = np.flatnonzero(~np.isfinite(y))
-    if bad.size:  # the first non-finite sample, as differentiate names it (it has no policy)
-        raise ValueError(nonfinite_message("y", int(bad[0]), float(y[bad[0]]), None))
+    check_finite(y, None, "y")  # the first non-finite sample, as differentiate names it
     i = np.arange(y.size, dtype=np.float64)
     coef = np.polyfit(i - i.mean(), y, 1)
     r = y - np.polyval(coef, i - i.mean())

@@ -218,15 +218,17 @@ def nonfinite_message(name: str, k: int, value: float, raise_policy: bool | None
     return f"{name}[{k}] = {value!r}: non-finite sample ({why})"
 
 
-def check_finite(y: np.ndarray, nonfinite: str, name: str = "y") -> np.ndarray:
-    """Apply a non-finite policy to a whole array (the batch twin of the streaming policy)."""
-    code = _policy("nonfinite", nonfinite, NONFINITE)
+def check_finite(y: np.ndarray, nonfinite: str | None, name: str = "y") -> np.ndarray:
+    """Apply a non-finite policy to a whole array (the batch twin of the streaming policy);
+    ``nonfinite`` None: a caller without a policy, which refuses any non-finite sample."""
+    code = 0 if nonfinite is None else _policy("nonfinite", nonfinite, NONFINITE)
     bad = ~np.isfinite(y)
     if not bad.any():
         return y
     k = int(np.flatnonzero(bad)[0])
     if code == 0 or k == 0:
-        raise ValueError(nonfinite_message(name, k, float(y[k]), code == 0))
+        raise ValueError(nonfinite_message(name, k, float(y[k]),
+                                           None if nonfinite is None else code == 0))
     idx = np.where(bad, 0, np.arange(y.size))  # hold: forward fill with the last finite sample
     np.maximum.accumulate(idx, out=idx)
     return y[idx]

@@ -83,8 +83,8 @@ DEFAULT_SMOOTHING_LENGTH = 20.0
 _FILTER_ORDER = 4
 #: Relative shortening of a path by its smoothing above which :meth:`Track.from_points` warns:
 #: the bundled tracks and race lines change by at most 0.02 % at their cut-offs; Norisring
-#: passes 2 % at a cut-off of ~180 m (its hairpins' curvature then rises: 0.101 1/m at the
-#: default 20 m, 0.121 at 100 m) and Spa at ~300 m. Engineering choice (session 16).
+#: passes 2 % at a cut-off of ~135 m (its hairpins' curvature rises before: 0.101 1/m at the
+#: default 20 m, 0.121 at 100 m) and Spa at ~240 m. Engineering choice (session 16).
 _SMOOTH_SHRINK_WARN = 0.02
 #: ``closed=None`` closes a path whose end is less than this many median point spacings from its
 #: start (the TUMFTM files end one spacing before their first point, PROVENANCE.md).
@@ -736,7 +736,8 @@ class Track:
                 )
             closed = True
         gap = math.hypot(x[-1] - x[0], y[-1] - y[0])
-        spacing = float(np.median(np.hypot(np.diff(x), np.diff(y))))
+        seg = np.hypot(np.diff(x), np.diff(y))
+        spacing = float(np.median(seg))
         what = f"{name} ({source})" if name and source and name != source else src
         if closed is True and not repeat and gap >= _CLOSE_GAP_SPACINGS * spacing:
             warn(f"{what}: closed=True joins its end to its start across {gap:.3g} m "
@@ -757,7 +758,7 @@ class Track:
         extent = max(np.ptp(x), np.ptp(y))
         if ds > extent:
             raise ValueError(f"ds = {ds!r} m: larger than the path extent ({extent:.3g} m)")
-        raw = float(np.hypot(np.diff(x), np.diff(y)).sum()) + (gap if closed else 0.0)
+        raw = float(seg.sum()) + (gap if closed else 0.0)
         if smoothing_length > raw / 4.0:
             raise ValueError(
                 f"smoothing_length = {smoothing_length!r} m: longer than a quarter of the path "

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,6 +18,7 @@ import numpy as np
 from scipy.interpolate import BPoly
 
 from flatfree._validate import positive
+from flatfree._warn import warn
 from flatfree.tracks import _io
 from flatfree.tracks.geometry import DEFAULT_DS, DEFAULT_SMOOTHING_LENGTH, Track, _as_1d
 
@@ -303,13 +305,14 @@ def load_track(
     """
     if not Path(name_or_path).is_file():  # a file is read as the file (module docstring)
         name = _io.bundled_name(name_or_path, "raceline" if raceline else "track")
-        # plain values only: a cache key equal to another (np.float32(0.5) == 0.5, True == 1)
-        # would skip the builder's checks of the second; the rest is the builder's to refuse
-        plain = (type(raceline) is bool and (closed is None or type(closed) is bool)
-                 and type(ds) in (int, float)
-                 and (smoothing_length is None or type(smoothing_length) in (int, float)))
-        if name is not None and plain:
-            return _bundled_track(name, raceline, closed, ds, smoothing_length)
+        if name is not None:
+            try:
+                track, said = _bundled_track(name, raceline, closed, ds, smoothing_length)
+            except TypeError:  # an unhashable argument: the builder's to refuse, naming it
+                return _build_track(name_or_path, raceline, closed, ds, smoothing_length)
+            for message, category in said:  # what its build said, said on every call
+                warn(message, category)
+            return track
     return _build_track(name_or_path, raceline, closed, ds, smoothing_length)
 
 
@@ -319,12 +322,17 @@ def _build_track(name_or_path, raceline, closed, ds, smoothing_length) -> Track:
                         name=f"{pts.name} raceline" if raceline else None)
 
 
-@functools.lru_cache(maxsize=16)
-def _bundled_track(name: str, raceline: bool, closed, ds, smoothing_length) -> Track:
-    """A bundled track, built once per process for each set of arguments (the 16 latest: a
-    Spa geometry is 0.56 MB at the default ds, 10x that at ds = 0.05 m): the package's files
-    do not change under a running process, and a Track is immutable (frozen, its geometry a
-    read-only view that cannot be made writeable), so every caller may share it. Building one
-    (reading, smoothing, the spline, the resampling) took 7 ms of the 13 ms that prepared a
-    Norisring run (session 16)."""
-    return _build_track(name, raceline, closed, ds, smoothing_length)
+@functools.lru_cache(maxsize=16, typed=True)
+def _bundled_track(name: str, raceline: bool, closed, ds, smoothing_length):
+    """A bundled track, built once per process for each set of arguments (typed: an argument
+    equal to another of another type, np.float32(0.5) and 0.5, is built, and so checked, on
+    its own), with the warnings its build gave: ``(track, ((message, category), ...))``. The
+    16 latest are kept (a Spa geometry is 0.56 MB at the default ds, 20x that at ds =
+    0.05 m). The package's files do not change under a running process, and a Track is
+    immutable (frozen, its geometry a read-only view that cannot be made writeable), so every
+    caller may share it. Building one (reading, smoothing, the spline, the resampling) took
+    ~6 of the ~13.5 ms that prepared a Norisring run (session 16)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        track = _build_track(name, raceline, closed, ds, smoothing_length)
+    return track, tuple((str(w.message), w.category) for w in caught)

@@ -10,9 +10,9 @@ and ``TireParams.to_array`` build them; ``VP`` and ``TP`` are the index enums of
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import enum
+import functools
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -346,29 +346,15 @@ def tire_names() -> list[str]:
     return sorted(p.name[:-5] for p in (_DATA / "tires").iterdir() if p.name.endswith(".toml"))
 
 
-#: The package's own TOML files, parsed once per process (they do not change under a running
-#: process: an edit of a preset in an editable install is seen by the next process; parsing
-#: the peugeot406 and its two tyre files took ~2 ms of each run's prepare).
-_BUNDLED_DOCS: dict[str, dict] = {}
-
-
 def _read_toml(path_or_resource, what: str) -> dict:
-    """The parsed TOML file (a fresh dict: the caller may change it)."""
-    key = str(path_or_resource)
-    bundled = Path(key).resolve().is_relative_to(Path(str(_DATA)).resolve())
-    if bundled and key in _BUNDLED_DOCS:
-        return copy.deepcopy(_BUNDLED_DOCS[key])
     try:
         text = path_or_resource.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ValueError(f"{what}: file not found: {path_or_resource}") from None
     try:
-        doc = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{what}: malformed TOML in {path_or_resource}: {exc}") from None
-    if bundled:
-        _BUNDLED_DOCS[key] = copy.deepcopy(doc)
-    return doc
 
 
 _NAMES = {"vehicle": vehicle_names, "tire": tire_names}
@@ -396,16 +382,21 @@ def _resolve(name_or_path: str | Path, folder, kind: str, base: Path | None = No
     found"), else a bundled name (:func:`bundled_name`). A reference written in a file of the
     folder ``base`` is read from there (:func:`flatfree._names.anchored`, the scenario files'
     rule; None: as given, from the current directory)."""
+    return _resolve_named(name_or_path, folder, kind, base)[0]
+
+
+def _resolve_named(name_or_path: str | Path, folder, kind: str, base: Path | None = None):
+    """:func:`_resolve` and the bundled name it found (None: a path)."""
     if base is not None:
         name_or_path = anchored(name_or_path, base, lambda text: bundled_name(text, kind))
     p = Path(name_or_path)
     if p.is_file() or looks_like_path(str(name_or_path)):
-        return p
+        return p, None
     name = bundled_name(name_or_path, kind)
     if name is None:
         raise ValueError(f"unknown {'tire set' if kind == 'tire' else kind} "
                          f"{str(name_or_path)!r}; valid names: {', '.join(_NAMES[kind]())}")
-    return folder / f"{name}.toml"
+    return folder / f"{name}.toml", name
 
 
 def vehicle_file(name_or_path: str | Path) -> Path:
@@ -503,9 +494,28 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
     vehicle file's folder (see :func:`_tire_from_doc`). A ``ValueError`` from a file names it.
 
     ``overrides`` replace parameters after loading (validated like the rest), e.g.
-    ``load_vehicle("peugeot406", mass=1360.0)``.
+    ``load_vehicle("peugeot406", mass=1360.0)``. A preset is read once per process and shared
+    (a VehicleParams is immutable); a file is read on every call.
     """
-    path = vehicle_file(name_or_path)
+    path, name = _resolve_named(name_or_path, _DATA, "vehicle")
+    params = _preset(name) if name is not None else _vehicle_from_file(path, name_or_path)
+    unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(VehicleParams)})
+    if unknown:
+        raise ValueError(f"vehicle overrides {unknown}: not parameters of a vehicle; valid: "
+                         f"{', '.join(f.name for f in dataclasses.fields(VehicleParams))}")
+    return dataclasses.replace(params, **overrides) if overrides else params
+
+
+@functools.cache
+def _preset(name: str) -> VehicleParams:
+    """A bundled preset, read once per process: the package's files do not change under a
+    running process (an edit of a preset in an editable install is seen by the next one);
+    reading the peugeot406 and its two tyre files took ~1 ms of each run's preparation."""
+    return _vehicle_from_file(_DATA / f"{name}.toml", name)
+
+
+def _vehicle_from_file(path, name_or_path) -> VehicleParams:
+    """:func:`load_vehicle` of the file ``path`` (``name_or_path``: as given), no overrides."""
     doc = _read_toml(path, f"vehicle {name_or_path}")
     where = f"vehicle file {path}"
     _known_keys(doc, _VEHICLE_KEYS, where)
@@ -525,11 +535,7 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
         )
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
-    unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(VehicleParams)})
-    if unknown:
-        raise ValueError(f"vehicle overrides {unknown}: not parameters of a vehicle; valid: "
-                         f"{', '.join(f.name for f in dataclasses.fields(VehicleParams))}")
-    return dataclasses.replace(params, **overrides) if overrides else params
+    return params
 
 
 def _tire_from_doc(spec, base: Path | None, side: str) -> TireParams:
