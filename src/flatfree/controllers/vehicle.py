@@ -1060,9 +1060,9 @@ class NaturalOutputController:
         controller warns when their durations are far from the tuned ones: at 100 Hz the
         default windows would span 1 s and the car leaves the track). Measured on the 10DoF
         with noise, rescaled (``benchmarks/control_period.py``, benchmarks/README.md "Control
-        period"): with :data:`flatfree.scenarios.IMU_SETTINGS` 100 Hz holds Norisring to
-        0.73 cm and Spa to 1.22 cm; the algebraic estimator holds
-        Norisring (1.80 / 2.48 cm at 500 / 200 Hz) and leaves the track at 100 Hz.
+        period"; seeds 0-2, session 16): with :data:`flatfree.scenarios.IMU_SETTINGS`
+        100 Hz holds Norisring to 0.77 cm and Spa to 1.21 cm; the algebraic estimator holds
+        Norisring (1.69 / 2.63 cm at 500 / 200 Hz) and leaves the track at 100 Hz.
     actuators : ActuatorParams
         Steer and torque limits (``ActuatorParams.from_vehicle(load_vehicle(...))`` or your
         own). The controller clips to them and, unless told what was applied, assumes that
