@@ -8,20 +8,12 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 
-.PHONY: demo lint test bench clean-cache clean numba-cache
+.PHONY: demo lint test bench clean-cache clean
 
 # numba's on-disk cache does not notice when a compiled function that another module imports
-# has changed (DESIGN.md "Speed by design"): a stale cache then runs old code silently. The make
-# targets therefore keep one cache folder per state of the sources (a hash of src/**/*.py) and
-# drop the folders of older states. (A plain `pytest` or `python` run uses numba's default
-# cache next to the sources: `make clean-cache` clears both.)
-SRC_HASH := $(shell find src -name '*.py' -type f | LC_ALL=C sort | xargs cat | sha1sum | cut -c1-12)
-NUMBA_CACHE_ROOT := $(CURDIR)/.numba-cache
-export NUMBA_CACHE_DIR := $(NUMBA_CACHE_ROOT)/$(SRC_HASH)
-
-numba-cache:
-	@mkdir -p $(NUMBA_CACHE_DIR)
-	@find $(NUMBA_CACHE_ROOT) -mindepth 1 -maxdepth 1 ! -name $(SRC_HASH) -exec rm -rf {} +
+# has changed (DESIGN.md "Speed by design"): `import flatfree` clears the package's cached
+# functions whenever its sources changed (src/flatfree/_jitcache.py), for make and plain
+# `python` / `pytest` runs alike. A NUMBA_CACHE_DIR of your own is yours to keep in step.
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -39,7 +31,7 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 	$(PIP) install --quiet -e .
 	touch $@
 
-demo: $(VENV)/.installed numba-cache
+demo: $(VENV)/.installed
 	$(VENV)/bin/flatfree demo
 
 # ruff (a test extra) over the whole tree; any finding fails the target.
@@ -48,17 +40,17 @@ lint: $(VENV)/.installed-test
 
 # The HTML report's browser test needs headless Chromium (Debian packages): installed here when
 # possible (root + apt-get), otherwise the test skips with a clear message.
-test: $(VENV)/.installed-test numba-cache lint
+test: $(VENV)/.installed-test lint
 	bash tools/install_browser.sh
 	$(PY) -m pytest -q
 
-bench: $(VENV)/.installed-bench numba-cache
+bench: $(VENV)/.installed-bench
 	$(PY) benchmarks/run_all.py
 
-# Clear every numba cache (the per-source-state folders and the default ones next to the sources).
+# Clear numba's cache next to the sources (and .numba-cache/, where make kept it before).
 clean-cache:
 	find src -name '__pycache__' -type d -prune -exec rm -rf {} +
-	rm -rf $(NUMBA_CACHE_ROOT)
+	rm -rf .numba-cache
 
 clean: clean-cache
 	rm -rf $(VENV) build *.egg-info src/*.egg-info
