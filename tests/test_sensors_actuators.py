@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -206,6 +207,22 @@ def test_dead_time_and_power_cap():
     assert capped[-1, 0] == pytest.approx(300.0)
     braking = _act(ActuatorParams(**BASE), [(-9000.0, 0.0)] * 3, vx=50.0)
     assert braking[-1, 0] == -5000.0
+
+
+def test_a_dead_time_off_the_plant_step_is_rounded_and_said():
+    """Module docstring, item 1: at a 1 ms step a 2.4 ms steer delay acts as 2 steps and a
+    2.6 ms torque delay as 3, and a warning names each moved setting (as the sensors do); delays
+    of whole steps pass without one."""
+    params = ActuatorParams(**BASE, steer_delay=0.0024, torque_delay=0.0026)
+    with pytest.warns(UserWarning, match=re.escape(
+            "steer_delay = 0.0024 s -> 0.002 s; torque_delay = 0.0026 s -> 0.003 s "
+            "(rounded to whole plant steps)")):
+        out = _act(params, [(100.0 * k, 1e-4 * k) for k in range(10)])
+    np.testing.assert_allclose(out[3:, 0], [100.0 * k for k in range(7)])
+    np.testing.assert_allclose(out[2:, 1], [1e-4 * k for k in range(8)], rtol=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ActuatorParams(**BASE, steer_delay=0.002, torque_delay=0.005).to_array(1e-3)
 
 
 def test_power_cap_below_v_power_min_and_for_a_negative_drive_speed():

@@ -4,7 +4,8 @@ The controller commands a wheel torque T_w [N m] (positive drive, negative brake
 steer angle delta [rad]. Between command and plant, :func:`actuate_step` applies, in order:
 
 1. **dead time**: the command of ``delay_steps`` plant steps earlier (rounded to the nearest
-   plant step, an exact half to the even number as Python's ``round``);
+   plant step, an exact half to the even number as Python's ``round``; a delay so moved is
+   said in a warning by :meth:`ActuatorParams.to_array`);
 2. **first-order lag** with time constant ``tau`` [s], discretised exactly for a command held over
    the step: ``y += (1 - exp(-dt / tau)) (u - y)`` (``tau = 0``: no lag);
 3. **rate limit** (steering) [rad/s];
@@ -29,6 +30,7 @@ from numba import njit
 
 from flatfree._validate import in_range, nonnegative, positive
 from flatfree._vecmath import no_refcount
+from flatfree._warn import warn
 from flatfree.vehicles.params import VehicleParams
 
 __all__ = ["ActuatorParams", "actuate_step", "actuator_state"]
@@ -84,18 +86,32 @@ class ActuatorParams:
         dt = positive("dt", dt, "s")
         a_s = 1.0 if self.steer_tau == 0.0 else 1.0 - math.exp(-dt / self.steer_tau)
         a_t = 1.0 if self.torque_tau == 0.0 else 1.0 - math.exp(-dt / self.torque_tau)
+        # the plant's clock is all the dead time has: say where it moves a setting (as the
+        # sensors do for theirs)
+        rounded = [f"{name} = {delay:g} s -> {_steps(delay, dt) * dt:g} s"
+                   for name, delay in (("steer_delay", self.steer_delay),
+                                       ("torque_delay", self.torque_delay))
+                   if abs(_steps(delay, dt) * dt - delay) > 1e-9 * dt]
+        if rounded:
+            warn(f"actuators at a plant step of {dt:g} s: {'; '.join(rounded)} "
+                 "(rounded to whole plant steps)")
         return np.array([
-            self.max_steer, self.max_steer_rate * dt, a_s, round(self.steer_delay / dt),
+            self.max_steer, self.max_steer_rate * dt, a_s, _steps(self.steer_delay, dt),
             self.max_drive_torque, self.max_power * self.wheel_radius, self.max_brake_torque,
-            a_t, round(self.torque_delay / dt),
+            a_t, _steps(self.torque_delay, dt),
         ])
+
+
+def _steps(delay: float, dt: float) -> int:
+    """A dead time [s] in whole steps of ``dt`` [s], to the nearest (module docstring)."""
+    return round(delay / dt)
 
 
 def actuator_state(params: ActuatorParams, dt: float, steer0: float = 0.0,
                    torque0: float = 0.0) -> np.ndarray:
     """Initial state for :func:`actuate_step`: outputs and the dead-time ring buffers."""
-    n_s = round(params.steer_delay / dt) + 1
-    n_t = round(params.torque_delay / dt) + 1
+    n_s = _steps(params.steer_delay, dt) + 1
+    n_t = _steps(params.torque_delay, dt) + 1
     depth = max(n_s, n_t)
     # layout: [steer_out, torque_out, write_index, steer_buf(depth), torque_buf(depth)]
     st = np.empty(3 + 2 * depth)

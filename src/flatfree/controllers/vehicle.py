@@ -80,7 +80,7 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from numba import njit
@@ -343,8 +343,20 @@ class KIND(enum.IntEnum):
     PYTHON = 3  # a user's Python controller (flatfree.simulation.simulate(controller=...))
 
 
+class _SampleCountSettings:
+    """Settings whose estimator windows and denoisers are counts of control samples."""
+
+    __slots__ = ()
+
+    def for_period(self, dt: float, *, from_dt: float = TUNED_PERIOD_S) -> Self:
+        """These settings at control period ``dt`` [s]: every window and denoiser keeps its
+        duration (:func:`rescale_sample_counts`; the counts given are at ``from_dt``, the
+        defaults' 1 ms). ``MfcNaturalSettings().for_period(0.01)`` for a 100 Hz loop."""
+        return rescale_sample_counts(self, dt, from_dt=from_dt)
+
+
 @dataclass(frozen=True, slots=True, kw_only=True)
-class MfcNaturalSettings:
+class MfcNaturalSettings(_SampleCountSettings):
     """Settings of the model-free controller on natural outputs (iP on Vx, iPD on e_y).
 
     The defaults are the settings of the named peugeot406 scenarios (flatfree.scenarios), the
@@ -553,15 +565,9 @@ class MfcNaturalSettings:
             raise ValueError(
                 f"derivative_lat = {self.derivative_lat!r}: must be 'model' or 'algebraic'")
 
-    def for_period(self, dt: float, *, from_dt: float = TUNED_PERIOD_S) -> MfcNaturalSettings:
-        """These settings at control period ``dt`` [s]: every window and denoiser keeps its
-        duration (:func:`rescale_sample_counts`; the counts given are at ``from_dt``, the
-        defaults' 1 ms). ``MfcNaturalSettings().for_period(0.01)`` for a 100 Hz loop."""
-        return rescale_sample_counts(self, dt, from_dt=from_dt)
-
 
 @dataclass(frozen=True, slots=True, kw_only=True)
-class MfcFlatSettings:
+class MfcFlatSettings(_SampleCountSettings):
     """Settings of the model-free controller on flat outputs (two iPIs, nu = 1).
 
     Parameters
@@ -644,12 +650,6 @@ class MfcFlatSettings:
                 raise ValueError(f"{k} = {getattr(self, k)!r} 1/s^2: must be >= 0")
         for k in ("window_lon", "window_lat"):  # stored as ints (a TOML 100.0 too)
             object.__setattr__(self, k, whole(k, getattr(self, k), 2, "samples"))
-
-    def for_period(self, dt: float, *, from_dt: float = TUNED_PERIOD_S) -> MfcFlatSettings:
-        """These settings at control period ``dt`` [s]: every window and denoiser keeps its
-        duration (:func:`rescale_sample_counts`; the counts given are at ``from_dt``, the
-        defaults' 1 ms). ``MfcFlatSettings().for_period(0.01)`` for a 100 Hz loop."""
-        return rescale_sample_counts(self, dt, from_dt=from_dt)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
