@@ -7,6 +7,7 @@ these tests check the engine's contracts on short runs.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -1073,6 +1074,33 @@ def test_a_patch_beyond_the_path_is_refused_a_late_fault_and_a_3dof_road_are_sai
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         prepare(sc.with_(plant="3dof"))
+
+
+def test_a_road_below_what_the_reference_asks_is_said():
+    """simulation._check_road: on the 10DoF plant a base road.mu whose mu g is below the
+    reference's largest |(a_x, V_x^2 kappa)| is warned about with the figures and the remedy
+    (the default profile asks about 6 m/s^2: road.mu 0.5 gives 4.90, 0.7 gives 6.86); a
+    profile planned for that road (reference.mu = 0.5) is not; a recording's reference says it
+    is the recording's (the LVMS recording asks more than 0.1 g)."""
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare
+
+    sc = named_scenario("paper-noise-free", duration_s=0.5)
+    ref = prepare(sc).reference
+    demand = np.hypot(ref["ax"], ref["vx"] ** 2 * ref["kappa"]).max()
+    assert demand == pytest.approx(6.0, abs=0.01)  # the ellipse's 6, sampled (6.007)
+    with pytest.warns(UserWarning, match=rf"road.mu = 0.5: the reference asks for up to "
+                                         rf"{demand:.2f} m/s\^2 \(at s = \d+ m\).*\(road.mu g = "
+                                         r"4.90 m/s\^2; .*set reference.mu = 0.5"):
+        prepare(sc.with_(road=RoadSpec(mu=0.5)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        prepare(sc.with_(road=RoadSpec(mu=0.7)))
+        prepare(sc.with_(road=RoadSpec(mu=0.5),
+                         reference=dataclasses.replace(sc.reference, mu=0.5)))
+    rec = named_scenario("recorded-noise-free", duration_s=0.5)
+    with pytest.warns(UserWarning, match=r"road.mu = 0.1: .*the recording's speeds"):
+        prepare(rec.with_(road=RoadSpec(mu=0.1)))
 
 
 @pytest.mark.parametrize("name", ["paper-flatness-noise-free", "paper-mfc-flat-noise-free"])

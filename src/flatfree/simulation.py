@@ -108,6 +108,7 @@ from flatfree.tracks import (
 )
 from flatfree.tracks.speed import _drive_acc, _drive_array
 from flatfree.trajectory import Status, Trajectory
+from flatfree.units import G
 from flatfree.vehicles import VehicleParams
 
 __all__ = ["LOG", "SENSOR_CHANNELS", "DEFAULT_HALF_WIDTH_M", "REFERENCE_DT_S", "ROUGH_JERK",
@@ -687,6 +688,12 @@ def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
         "that speed", UserWarning)
 
 
+#: A reference asking more than this times ``road.mu g`` is warned about (:func:`_check_road`):
+#: a profile planned for the road exceeds its friction ellipse by ~0.2 % where the table's
+#: samples meet (4.91 against 4.90 m/s^2 at mu 0.5 on Norisring).
+_GRIP_MARGIN = 1.01
+
+
 def _check_road(sc: Scenario, ref: Reference) -> None:
     """Refuse a friction patch the car can never reach, and say when the plant ignores the
     road's friction.
@@ -695,7 +702,11 @@ def _check_road(sc: Scenario, ref: Reference) -> None:
     :func:`_mu_at`; the patch then acts on every lap), so one that starts at or beyond the
     path's length (the lap's, on a closed path) never applies: ``ValueError`` naming it. The
     3DoF plant's linear tyres have no friction limit: ``road.mu`` and the patches do not act
-    on it (a warning; the trajectory logs them as given).
+    on it (a warning; the trajectory logs them as given). On the 10DoF plant a base
+    ``road.mu`` whose ``mu g`` is below the reference's largest acceleration ``|(a_x,
+    V_x^2 kappa)|`` (by more than :data:`_GRIP_MARGIN`) is warned about: the speed profile
+    plans with ``reference.mu``, not with the road's (a patch below it is a local fault,
+    meant, and not warned about).
     """
     length = ref.path.length
     what = "the lap's length" if ref.path.closed else "the path's length"
@@ -706,10 +717,23 @@ def _check_road(sc: Scenario, ref: Reference) -> None:
                 f"{length:.1f} m, so the patch never applies (patches are placed by the arc "
                 "length along the path" + (", modulo the lap, and act on every lap)"
                                            if ref.path.closed else ")"))
-    if sc.plant == "3dof" and (sc.road.mu != 1.0 or sc.road.patches):
-        warn(f"road.mu = {sc.road.mu!r} and {len(sc.road.patches)} friction patch(es) do not "
-             "act on the 3dof plant (linear tyres, no friction limit): use plant = '10dof' for "
-             "the road's friction")
+    if sc.plant == "3dof":
+        if sc.road.mu != 1.0 or sc.road.patches:
+            warn(f"road.mu = {sc.road.mu!r} and {len(sc.road.patches)} friction patch(es) do "
+                 "not act on the 3dof plant (linear tyres, no friction limit): use plant = "
+                 "'10dof' for the road's friction")
+        return
+    # a road below what the reference asks everywhere (a patch is a local fault, meant)
+    acc = np.hypot(ref["ax"], ref["vx"] ** 2 * ref["kappa"])
+    k = int(np.argmax(acc))
+    grip = sc.road.mu * G
+    if acc[k] > _GRIP_MARGIN * grip:
+        why = ("the recording's speeds on its path" if sc.reference.recording is not None
+               else f"the speed profile plans with reference.mu = {sc.reference.mu!r}, not "
+               f"with the road's: set reference.mu = {sc.road.mu!r} to plan for this road")
+        warn(f"road.mu = {sc.road.mu!r}: the reference asks for up to {acc[k]:.2f} m/s^2 "
+             f"(at s = {ref['s'][k]:.0f} m), more than the road's friction gives anywhere "
+             f"(road.mu g = {grip:.2f} m/s^2; {why})")
 
 
 def reference_of(sc: Scenario | str) -> Reference:
