@@ -266,14 +266,21 @@ def test_run_prints_times_rounded_and_writes_them_exact(runner, tmp_path):
         tr.duration
 
 
-def test_run_says_why_every_metric_is_null(runner):
-    res = _invoke(runner, ["run", "--no-noise", "--duration", "1", "--json"])
+def test_run_says_why_every_metric_is_null(runner, tmp_path):
+    res = _invoke(runner, ["run", "--no-noise", "--duration", "1", "--json",
+                           "--out", str(tmp_path / "o")])
     doc = json.loads(res.stdout)
     assert doc["status"] == "completed" and doc["lateral_error_max_m"] is None
     assert "note: every metric is null" in res.stderr
     assert "0.99 s" in res.stderr and "timing.startup_s = 1 s" in res.stderr
+    # the JSON carries it too (a pipe keeps stdout only)
+    (note,) = doc["notes"]
+    assert note.startswith("every metric is null: its log ends at 0.99 s")
+    assert json.loads((tmp_path / "o" / "metrics.json").read_text())["notes"] == [note]
+    assert "note: every metric is null" in (tmp_path / "o" / "report.html").read_text()
     res = _invoke(runner, ["run", "--no-noise", "--duration", "1.5", "--json"])
     assert "every metric is null" not in res.stderr
+    assert "notes" not in json.loads(res.stdout)
 
 
 def test_run_says_when_the_path_ends_before_the_duration(runner):
@@ -286,6 +293,7 @@ def test_run_says_when_the_path_ends_before_the_duration(runner):
     note = " ".join(res.stderr.split())
     assert f"note: the run ended at {end:.2f} s, not at the requested duration of 200 s" in note
     assert "1 lap of Norisring" in note and "--set reference.laps=N" in note
+    assert json.loads(res.stdout)["notes"][0].startswith(f"the run ended at {end:.2f} s")
     res = _invoke(runner, ["run", "--no-noise", *SHORT, "--json"])
     assert "note" not in res.stderr
 

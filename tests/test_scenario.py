@@ -503,6 +503,14 @@ def test_settings_inf_and_defaults_and_order():
     assert sc.timing.duration_s == 3.0 and isinstance(sc.timing.duration_s, float)
     assert sc.reference.track == "Spa"
     assert sc.with_settings({"timing.duration_s": None}).timing.duration_s is None
+    # a string with nothing after the "=" (a command line's only way to None) likewise
+    shaped = sc.with_settings(["reference.closed=false", "reference.smoothing_length_m=40"])
+    assert (shaped.reference.closed, shaped.reference.smoothing_length_m) == (False, 40.0)
+    back = shaped.with_settings(["reference.closed=", " reference.smoothing_length_m = "])
+    assert (back.reference.closed, back.reference.smoothing_length_m) == (None, None)
+    assert back == sc
+    assert sc.with_settings(["timing.duration_s="]).timing.duration_s is None
+    assert Scenario().with_settings(["seed=3", "seed="]).seed == Scenario().seed
     # no settings: the scenario itself
     base = _rich()
     assert scenario_with_settings(base, []) is base

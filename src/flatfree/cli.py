@@ -770,7 +770,8 @@ usage or input.""")
               help="Set a scenario field by its dotted path, e.g. reference.j_lat_max=15, "
                    "reference.closed=false (a track file's shape; --track and --recording "
                    "drop it), reference.smoothing_length_m=40, sensors.y.markov_order=2, "
-                   "controller_settings.alpha_lat=40 (repeatable; applied after the other "
+                   "controller_settings.alpha_lat=40; FIELD= (nothing after the =) puts "
+                   "the field back to its default (repeatable; applied after the other "
                    "options, so it wins over them).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print exactly one JSON object (metrics and settings) on stdout.")
@@ -803,7 +804,7 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         # the reference the run was built on, for the notes, the recorded steer and the figures
         warned: list[str] = []
         tr, reference = _simulate(sc, warned)
-        _note_short_or_capped(sc, tr, reference)
+        notes = _note_short_or_capped(sc, tr, reference)
         with _collecting([]):  # its one warning (every metric NaN) is this command's own note
             m = compute_metrics(tr, startup_s=sc.timing.startup_s)
         extra: dict[str, float] = {}
@@ -817,6 +818,8 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         payload = _run_json(sc, tr, m, extra)
         if warned:  # what the run warned about goes with its numbers (stderr is not kept)
             payload["warnings"] = warned
+        if notes:  # and what explains them (a run shorter than asked, every metric null)
+            payload["notes"] = notes
         if out_dir is not None:
             _write_run(out_dir, result, payload, reference, rec)
             if with_csv:
@@ -846,24 +849,29 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
         sys.exit(1)
 
 
-def _note_short_or_capped(sc, tr, reference) -> None:
+def _note_short_or_capped(sc, tr, reference) -> list[str]:
     """Notes on stderr when the run's length explains its results: it ended at the end of the
     reference path before the requested duration, or within the start-up interval that the
-    metrics leave out (every metric then null). ``reference``: the run's reference."""
+    metrics leave out (every metric then null). ``reference``: the run's reference. Returns
+    the notes (for the run's JSON)."""
     from flatfree.metrics import no_sample_after_startup
 
+    notes = []
     t = tr.time
     requested = sc.timing.duration_s
     if (tr.completed and requested is not None and t.size
             and t[-1] + sc.timing.log_dt_s < requested - 1e-9):
-        _err(f"note: the run ended at {t[-1]:.2f} s, not at the requested duration of "
-             f"{requested:g} s (timing.duration_s): {_reference_end(sc, reference)}")
+        notes.append(f"the run ended at {t[-1]:.2f} s, not at the requested duration of "
+                     f"{requested:g} s (timing.duration_s): {_reference_end(sc, reference)}")
     startup = sc.timing.startup_s
     if no_sample_after_startup(tr, startup):
         end = f"its log ends at {t[-1]:.2f} s" if t.size else "it logged nothing"
-        _err(f"note: every metric is null: {end}, within the start-up interval of "
-             f"timing.startup_s = {startup:g} s that the metrics leave out; run longer "
-             "(--duration) or shorten it (--set timing.startup_s=S)")
+        notes.append(f"every metric is null: {end}, within the start-up interval of "
+                     f"timing.startup_s = {startup:g} s that the metrics leave out; run "
+                     "longer (--duration) or shorten it (--set timing.startup_s=S)")
+    for n in notes:
+        _err(f"note: {n}")
+    return notes
 
 
 def _write_run(out_dir: Path, result, payload: dict[str, Any], reference,
@@ -886,7 +894,8 @@ def _write_run(out_dir: Path, result, payload: dict[str, Any], reference,
         figs.append((caption, _draw(out_dir / "figures", stem, draw)))
     write_report(out_dir / "report.html", [result], figs,
                  title=f"flatfree run: {sc.name}, {sc.controller}",
-                 notes=[f"warning: {w}" for w in payload.get("warnings", [])])
+                 notes=[*(f"warning: {w}" for w in payload.get("warnings", [])),
+                        *(f"note: {n}" for n in payload.get("notes", []))])
 
 
 def _draw(folder: Path, stem: str, draw: Callable) -> Path:

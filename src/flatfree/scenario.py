@@ -844,7 +844,9 @@ def _settings(settings: Sequence[str] | Mapping[str, Any]) -> list[_Setting]:
         if not eq:
             raise ValueError(f"setting {s}: expected FIELD=VALUE, e.g. reference.j_lat_max=15")
         text = text.strip()
-        out.append(_Setting(s, _split_path(path, s), _parse_value(text), text))
+        # nothing after the "=": the field's default, as a mapping's None (TOML has no null)
+        value = None if text == "" else _parse_value(text)
+        out.append(_Setting(s, _split_path(path, s), value, text))
     return out
 
 
@@ -952,7 +954,9 @@ def scenario_with_settings(sc: Scenario,
         ``vehicle_overrides.mass``, ``road.mu``. In a string the value is read as a TOML
         value (``15``, ``1.5e-3``, ``inf``, ``true``, ``"Monza"``, ``[[0, 0], [80, -9.2]]``,
         ``{noise_std = 0.1}``) or, when it is not one, taken as a bare string
-        (``reference.track=Monza``); a string field takes the text as written (``name=2024``).
+        (``reference.track=Monza``); a string field takes the text as written (``name=2024``);
+        nothing after the ``=`` (``reference.closed=``) puts the field back to its default
+        (``reference.closed`` and ``reference.smoothing_length_m``: None, the loader's choice).
         A mapping's values are taken as they are (``None``: the field's default). Applied in
         order (a later setting of the same path wins), then validated together.
 
