@@ -81,6 +81,8 @@ DEFAULT_SMOOTHING_LENGTH = 20.0
 #: Order of the zero-phase low-pass H(f) = 1 / (1 + (f lambda_c)^(2n)), n = 4 (Butterworth magnitude
 #: shape squared); a circle of radius R passes with gain 1 - (lambda_c / 2 pi R)^8.
 _FILTER_ORDER = 4
+#: How far an open path's ends are continued before the low-pass [cut-off lengths] (_lowpass)
+_END_PAD = 2.0
 #: Relative shortening of a path by its smoothing above which :meth:`Track.from_points` warns:
 #: the bundled tracks and race lines change by at most 0.02 % at their cut-offs; Norisring
 #: passes 2 % at a cut-off of ~135 m (its hairpins' curvature rises before: 0.101 1/m at the
@@ -467,18 +469,34 @@ def progress(s_new, s_old, length, closed):
 def _lowpass(v: np.ndarray, h: float, cutoff: float, periodic: bool) -> np.ndarray:
     """Zero-phase low-pass of uniformly spaced samples (rows), H(f) = 1/(1 + (f cutoff)^8).
 
-    Periodic data are filtered as they are. Open data: the straight line through the two end
-    points is removed, the residual (zero at both ends) is extended by odd reflection into a
-    periodic signal without jumps (a sine series), filtered, and the line added back; end points
-    and straight lines are kept exactly, and the curvature is pulled towards 0 within about one
-    cut-off length of the ends.
+    Periodic data are filtered as they are. Open data: each end is first continued over
+    :data:`_END_PAD` cut-off lengths by the mirror image of the points next to it across the
+    end's normal (the tangent from a parabola fitted over one cut-off length), so that the
+    curvature runs on through the end (a circle continues as itself); then the straight line
+    through the two new end points is removed, the residual (zero at both ends) is extended by
+    odd reflection into a periodic signal without jumps (a sine series), filtered, the line
+    added back and the continuations cut off. Straight lines are kept exactly. Measured on arcs
+    sampled every metre, 20 m cut-off: the curvature at the end is 0.988 of the arc's at R = 100
+    m, 0.963 at R = 50 m (before the continuation: -0.04, the curvature pulled to 0 within
+    about one cut-off length of the ends and overshooting 14 % at 10 m); with 2 cm of white
+    noise on the points its error at the ends is 3.3 % RMS, as inside the path (3.6 %),
+    against 12 % for a cubic's tangent (tests/test_tracks_geometry.py).
     """
     n = v.shape[0]
+    pad = 0
     if periodic:
         ext = v
         trend = 0.0
     else:
-        w = np.linspace(0.0, 1.0, n)[:, None]
+        # each end continued by its mirror image across the end's normal over two cut-off
+        # lengths (a circle continues as itself: the curvature runs on through the end), so
+        # the odd reflection's forced zero curvature lies beyond them
+        fit = min(n, max(3, int(math.ceil(cutoff / h)) + 1))  # one cut-off length
+        pad = min(n - 1, int(math.ceil(_END_PAD * cutoff / h)))
+        head = _mirrored(v[:pad + 1], _end_tangent(v[:fit]))
+        tail = _mirrored(v[::-1][:pad + 1], _end_tangent(v[::-1][:fit]))[::-1]
+        v = np.concatenate([head, v, tail], axis=0)
+        w = np.linspace(0.0, 1.0, v.shape[0])[:, None]
         trend = v[:1] + (v[-1:] - v[:1]) * w
         r = v - trend
         ext = np.concatenate([r, -r[-2:0:-1]], axis=0)
@@ -486,7 +504,21 @@ def _lowpass(v: np.ndarray, h: float, cutoff: float, periodic: bool) -> np.ndarr
     f = np.fft.rfftfreq(m, h)
     gain = 1.0 / (1.0 + (f * cutoff) ** (2 * _FILTER_ORDER))
     out = np.fft.irfft(np.fft.rfft(ext, axis=0) * gain[:, None], m, axis=0)
-    return out if periodic else out[:n] + trend
+    return out if periodic else (out[:v.shape[0]] + trend)[pad:pad + n]
+
+
+def _end_tangent(y: np.ndarray) -> np.ndarray:
+    """Unit tangent at the first row of ``y`` (points from the end inwards), from the
+    least-squares parabola through them (rows at positions 0, 1, ...)."""
+    c = np.polynomial.polynomial.polyfit(np.arange(y.shape[0], dtype=float), y, 2)
+    return c[1] / np.linalg.norm(c[1])
+
+
+def _mirrored(y: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The rows ``y[1:]`` mirrored across the normal of ``t`` through ``y[0]``, in the order
+    that continues the path beyond ``y[0]`` (the mirror of ``y[k]`` first for the largest k)."""
+    d = y[1:] - y[0]
+    return (y[1:] - 2.0 * (d @ t)[:, None] * t[None, :])[::-1]
 
 
 _GL = {n: np.polynomial.legendre.leggauss(n) for n in (4, 6)}
@@ -692,8 +724,10 @@ class Track:
             Cut-off wavelength of the zero-phase low-pass applied to x(u), y(u) before fitting
             [m] (gain 1/2 at that wavelength, 1/(1 + (lambda_c/lambda)^8) elsewhere); 0 = none
             (the quintic spline then interpolates the points exactly). Periodic for closed paths;
-            on open paths the end points stay fixed and straight lines stay exact, but the
-            curvature is pulled towards 0 within about one cut-off length of the ends.
+            on open paths each end is continued by its mirror image across the end's normal
+            first, so the curvature runs on through the ends (within ~1-4 % of an arc's at the
+            end point for radii of 5-2.5 cut-off lengths) and straight lines stay exact; the end
+            points are smoothed like the others.
         name, source : str
 
         Returns
