@@ -39,7 +39,7 @@ P = Bicycle3DoFParams(m=1500.0, iz=2620.0, lf=1.08, lr=1.62, cf=97_700.0, cr=73_
                       wheel_radius=0.31, wheel_inertia_front=0.0, wheel_inertia_rear=0.0)
 
 
-@numba.njit(cache=True)
+@numba.njit  # not cached: it inlines flatfree kernels (flatfree._jitcache)
 def _loop(p, s, plant, n, dt, with_controller):
     flatness_reset(p, s)
     x = np.array([20.5, 0.05, 0.0])

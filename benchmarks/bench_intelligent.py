@@ -35,7 +35,7 @@ N_SHELL = 200_000
 REPEATS = 5
 
 
-@numba.njit(cache=True)
+@numba.njit  # not cached: it inlines flatfree kernels (flatfree._jitcache)
 def _closed_loop(p, s, n, dt, with_controller):
     intelligent_reset(p, s)
     nu = int(p[0])

@@ -74,7 +74,7 @@ def maneuver_60s(model: TenDoF, dt: float = 1e-3):
 # --------------------------------------------------------------------------------------------
 # 1 and 2: throughput and where the time goes
 # --------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit  # not cached: it inlines flatfree kernels (flatfree._jitcache)
 def _mf4_loop(diag_rows, mu, tp_f, tp_r):
     """mf_combined4 over recorded per-wheel (F_z, alpha, kappa) of a run, in the model's layout."""
     lanes = np.zeros((4, 6))
@@ -90,7 +90,7 @@ def _mf4_loop(diag_rows, mu, tp_f, tp_r):
     return acc
 
 
-@njit(cache=True)
+@njit  # not cached: it inlines flatfree kernels (flatfree._jitcache)
 def _mf_loop(diag_rows, mu, tp_f, tp_r):
     """The same inputs through four scalar mf_combined calls."""
     acc = 0.0
@@ -102,7 +102,7 @@ def _mf_loop(diag_rows, mu, tp_f, tp_r):
     return acc
 
 
-@njit(cache=True)
+@njit  # not cached: it inlines flatfree kernels (flatfree._jitcache)
 def _copy_loop(diag_rows, mu, tp_f, tp_r):
     """The loop of _mf4_loop without the tyre call (its overhead)."""
     lanes = np.zeros((4, 6))

@@ -75,7 +75,7 @@ class _Recorder:
                             c.f_yaw, measurement, reference, applied[0], applied[1])
 
 
-@njit(cache=True)
+@njit  # not cached: it inlines flatfree kernels (flatfree._jitcache)
 def _controller_only(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, meas, cref,
                      applied):
     acc = 0.0

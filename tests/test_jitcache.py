@@ -118,15 +118,39 @@ def test_a_folder_that_cannot_be_written_is_reported_not_raised(tmp_path, monkey
         raise PermissionError("read-only file system")
 
     monkeypatch.setattr(_jitcache.os, "replace", refuse)
-    assert _jitcache.guard(tmp_path) == "read-only"
+    assert _jitcache.guard(tmp_path) == "not-checked"
 
 
-def test_importing_flatfree_checks_its_own_sources():
-    """The guard runs on ``import flatfree`` and leaves the stamp of the package's sources."""
+def test_an_editor_s_lock_file_does_not_break_the_check(tmp_path, monkeypatch):
+    """A dangling symlink named like a module (Emacs's ``.#mod.py`` lock) is not a source;
+    a file that cannot be read gives "not-checked", never an exception (it runs on import)."""
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    (tmp_path / "mod.py").write_text("x = 1\n")
+    (tmp_path / ".#mod.py").symlink_to(tmp_path / "user@host.123:1")
+    assert _jitcache.guard(tmp_path) == "cleared"
+    assert _jitcache.guard(tmp_path) == "unchanged"
+
+    def vanish(*args, **kwargs):
+        raise FileNotFoundError("gone while read")
+
+    monkeypatch.setattr(_jitcache.os, "stat", vanish)
+    assert _jitcache.guard(tmp_path) == "not-checked"
+
+
+def test_importing_flatfree_runs_the_check(tmp_path):
+    """``import flatfree`` (of a copy of the package, without its stamp) writes the stamp of
+    the copy's sources: the check runs on import, without importing numba."""
+    import shutil
+
     import flatfree
 
     root = Path(flatfree.__file__).resolve().parent
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        assert _jitcache.guard(root) == "user-dir"
-    else:
-        assert _jitcache.guard(root) == "unchanged"  # import flatfree stamped this state
+    shutil.copytree(root, tmp_path / "flatfree", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["PYTHONPATH"] = str(tmp_path)
+    code = "import sys, flatfree; print(flatfree.__file__, 'numba' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, cwd=tmp_path, check=True).stdout.split()
+    assert out == [str(tmp_path / "flatfree" / "__init__.py"), "False"]
+    assert (tmp_path / "flatfree" / "__pycache__" / _jitcache.STAMP_NAME).exists()
+    assert _jitcache.guard(tmp_path / "flatfree") in ("unchanged", "user-dir")

@@ -511,6 +511,10 @@ def test_settings_inf_and_defaults_and_order():
     assert back == sc
     assert sc.with_settings(["timing.duration_s="]).timing.duration_s is None
     assert Scenario().with_settings(["seed=3", "seed="]).seed == Scenario().seed
+    # string fields too (an empty text is name="")
+    moved = Scenario().with_settings(["reference.track=Monza", "name=x", "vehicle=bmw320i"])
+    assert moved.with_settings(["reference.track=", "name=", "vehicle="]) == Scenario()
+    assert Scenario().with_settings(['description=""']).description == ""
     # no settings: the scenario itself
     base = _rich()
     assert scenario_with_settings(base, []) is base

@@ -216,7 +216,7 @@ def test_a_dead_time_off_the_plant_step_is_rounded_and_said():
     params = ActuatorParams(**BASE, steer_delay=0.0024, torque_delay=0.0026)
     with pytest.warns(UserWarning, match=re.escape(
             "steer_delay = 0.0024 s -> 0.002 s; torque_delay = 0.0026 s -> 0.003 s "
-            "(rounded to whole plant steps)")):
+            "(rounded to whole steps)")):
         out = _act(params, [(100.0 * k, 1e-4 * k) for k in range(10)])
     np.testing.assert_allclose(out[3:, 0], [100.0 * k for k in range(7)])
     np.testing.assert_allclose(out[2:, 1], [1e-4 * k for k in range(8)], rtol=1e-12)

@@ -93,8 +93,8 @@ class ActuatorParams:
                                        ("torque_delay", self.torque_delay))
                    if abs(_steps(delay, dt) * dt - delay) > 1e-9 * dt]
         if rounded:
-            warn(f"actuators at a plant step of {dt:g} s: {'; '.join(rounded)} "
-                 "(rounded to whole plant steps)")
+            warn(f"actuators at a step of {dt:g} s: {'; '.join(rounded)} "
+                 "(rounded to whole steps)")
         return np.array([
             self.max_steer, self.max_steer_rate * dt, a_s, _steps(self.steer_delay, dt),
             self.max_drive_torque, self.max_power * self.wheel_radius, self.max_brake_torque,

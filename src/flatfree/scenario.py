@@ -868,6 +868,8 @@ def _typed(st: _Setting) -> Any:
     is the name "2024"), a float field stores an integer as a float. (A number field's
     validation refuses text and booleans: :mod:`flatfree._validate`.)"""
     value, ann = st.value, _annotation(st.path)
+    if value is None:  # the field's default (a mapping's None, or nothing after the "=")
+        return None
     if ann in ("str", "str | None") and st.text is not None and not isinstance(value, str):
         return st.text  # a number or boolean the TOML parser read: the text as written
     if ann in ("float", "float | None") and type(value) is int:
@@ -956,7 +958,8 @@ def scenario_with_settings(sc: Scenario,
         ``{noise_std = 0.1}``) or, when it is not one, taken as a bare string
         (``reference.track=Monza``); a string field takes the text as written (``name=2024``);
         nothing after the ``=`` (``reference.closed=``) puts the field back to its default
-        (``reference.closed`` and ``reference.smoothing_length_m``: None, the loader's choice).
+        (``reference.closed`` and ``reference.smoothing_length_m``: None, the loader's choice;
+        an empty text is ``name=""``).
         A mapping's values are taken as they are (``None``: the field's default). Applied in
         order (a later setting of the same path wins), then validated together.
 

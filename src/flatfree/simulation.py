@@ -728,9 +728,15 @@ def _check_road(sc: Scenario, ref: Reference) -> None:
     k = int(np.argmax(acc))
     grip = sc.road.mu * G
     if acc[k] > _GRIP_MARGIN * grip:
-        why = ("the recording's speeds on its path" if sc.reference.recording is not None
-               else f"the speed profile plans with reference.mu = {sc.reference.mu!r}, not "
-               f"with the road's: set reference.mu = {sc.road.mu!r} to plan for this road")
+        if sc.reference.recording is not None:
+            why = "the recording's speeds on its path"
+        elif sc.reference.mu > sc.road.mu:
+            why = (f"the speed profile plans with reference.mu = {sc.reference.mu!r}, not with "
+                   f"the road's: set reference.mu = {sc.road.mu!r} to plan for this road")
+        else:  # planned for this road: the path's own curvature asks it (its smoothing)
+            why = ("the speed profile plans for this road's friction, but the path's curvature "
+                   "varies faster than the profile follows (its smoothing: "
+                   "reference.smoothing_length_m)")
         warn(f"road.mu = {sc.road.mu!r}: the reference asks for up to {acc[k]:.2f} m/s^2 "
              f"(at s = {ref['s'][k]:.0f} m), more than the road's friction gives anywhere "
              f"(road.mu g = {grip:.2f} m/s^2; {why})")

@@ -726,8 +726,11 @@ class Track:
             (the quintic spline then interpolates the points exactly). Periodic for closed paths;
             on open paths each end is continued by its mirror image across the end's normal
             first, so the curvature runs on through the ends (within ~1-4 % of an arc's at the
-            end point for radii of 5-2.5 cut-off lengths) and straight lines stay exact; the end
-            points are smoothed like the others.
+            end point for radii of 5-2.5 cut-off lengths; 0.81 of it for a half-turn of R = 20
+            m ending the path, 20 m cut-off) and straight lines stay exact; the end points are
+            smoothed like the others: an end curve tighter than the cut-off moves its end point
+            as the low-pass cuts such a curve anywhere (that half-turn's by 9 cm, one of R = 3
+            m by 2.1 m, with the shrink warning below).
         name, source : str
 
         Returns
