@@ -1097,8 +1097,12 @@ def test_a_road_below_what_the_reference_asks_is_said():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         prepare(sc.with_(road=RoadSpec(mu=0.7)))
-        prepare(sc.with_(road=RoadSpec(mu=0.5),
-                         reference=dataclasses.replace(sc.reference, mu=0.5)))
+        planned = prepare(sc.with_(road=RoadSpec(mu=0.5),
+                                   reference=dataclasses.replace(sc.reference, mu=0.5)))
+    # the margin's reason: a profile planned for the road asks 0.12 % more than mu g
+    r = planned.reference
+    over = np.hypot(r["ax"], r["vx"] ** 2 * r["kappa"]).max() / (0.5 * 9.80665)
+    assert 1.0 < over < 1.002
     # planned for the road, but an unsmoothed path's curvature asks more (LVMS: 1.2x)
     raw = sc.with_(road=RoadSpec(mu=0.5), reference=dataclasses.replace(
         sc.reference, track="LVMS", mu=0.5, smoothing_length_m=0.0))

@@ -471,11 +471,11 @@ def test_a_bundled_track_is_built_once_and_a_file_of_its_name_is_still_the_file(
     give the same object, equal to one built afresh; other arguments another; a file in the
     current directory named like a bundled track is read as that file (the loaders' rule), not
     taken from the cache."""
-    from flatfree.tracks.loaders import _build_track
+    from flatfree.tracks.loaders import _build_track, read_track_points
 
     a = T.load_track("Norisring")
     assert T.load_track(" norisring ") is a
-    fresh = _build_track("Norisring", False, None, T.DEFAULT_DS, None)
+    fresh = _build_track(read_track_points("Norisring"), False, None, T.DEFAULT_DS, None)
     np.testing.assert_array_equal(a.geometry, fresh.geometry)
     assert (a.name, a.closed, a.source) == (fresh.name, fresh.closed, fresh.source)
     assert not a.geometry.flags.writeable
@@ -517,6 +517,28 @@ def test_the_track_cache_does_not_skip_the_builders_checks_or_share_a_writeable_
     mine = np.array(a.geometry)  # a caller's own array stays the caller's: writeable
     T.Track(name="y", closed=a.closed, geometry=mine)
     assert mine.flags.writeable
+
+
+def test_a_bundled_name_in_another_spelling_is_the_bundled_track_whatever_the_folder_holds(
+        tmp_path, monkeypatch):
+    """Review find: a file named ``Norisring`` (no suffix) in the current folder was read for
+    ``load_track("norisring")`` (the cache looked the name up as the bundled track, and its
+    build looked it up again as a file) and then served for every spelling. The file is read
+    for its own spelling only, as before the cache; a build that fails with a hashable
+    argument fails once (it was built again on its TypeError)."""
+    import numpy as np
+
+    monkeypatch.chdir(tmp_path)
+    th = np.linspace(0.0, 2.0 * np.pi, 400, endpoint=False)
+    (tmp_path / "Norisring").write_text(
+        "x_m,y_m\n" + "\n".join(f"{100 * np.cos(t)},{100 * np.sin(t)}" for t in th) + "\n")
+    bundled = T.load_track("norisring", ds=0.7)  # a key no other test builds: a fresh build
+    assert bundled.length == pytest.approx(2296.0, abs=1.0)
+    assert T.load_track("NORISRING", ds=0.7) is bundled
+    assert T.load_track("Norisring", ds=0.7).length == pytest.approx(2 * np.pi * 100, rel=1e-3)
+    with pytest.raises(TypeError) as info:
+        T.load_track("Monza", smoothing_length="20")
+    assert info.value.__context__ is None  # raised by one build, not by a second one
 
 
 def test_a_smoothing_that_distorts_the_path_is_said_and_one_that_erases_it_refused(tmp_path):

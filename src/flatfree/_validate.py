@@ -135,3 +135,11 @@ def one_of(name: str, value, allowed: tuple[int, ...], hint: str = "") -> int:
         raise ValueError(f"{_fmt(name, value, '')}: must be "
                          f"{', '.join(map(str, allowed[:-1]))} or {allowed[-1]}{hint}")
     return int(v)
+
+
+def whole_steps(seconds: float, dt: float) -> tuple[int, bool]:
+    """``seconds`` in whole steps of ``dt`` (both [s]), to the nearest (an exact half to the
+    even number, as ``round``), and whether that moved it (by more than 1e-9 of a step): the
+    one rule of the delays, sample periods and timing multiples on a clock."""
+    n = round(seconds / dt)
+    return n, abs(n * dt - seconds) > 1e-9 * dt

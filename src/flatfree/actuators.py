@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from flatfree._validate import in_range, nonnegative, positive
+from flatfree._validate import in_range, nonnegative, positive, whole_steps
 from flatfree._vecmath import no_refcount
 from flatfree._warn import warn
 from flatfree.vehicles.params import VehicleParams
@@ -88,30 +88,27 @@ class ActuatorParams:
         a_t = 1.0 if self.torque_tau == 0.0 else 1.0 - math.exp(-dt / self.torque_tau)
         # the plant's clock is all the dead time has: say where it moves a setting (as the
         # sensors do for theirs)
-        rounded = [f"{name} = {delay:g} s -> {_steps(delay, dt) * dt:g} s"
-                   for name, delay in (("steer_delay", self.steer_delay),
-                                       ("torque_delay", self.torque_delay))
-                   if abs(_steps(delay, dt) * dt - delay) > 1e-9 * dt]
+        steps, rounded = {}, []
+        for name in ("steer_delay", "torque_delay"):
+            delay = getattr(self, name)
+            steps[name], moved = whole_steps(delay, dt)
+            if moved:
+                rounded.append(f"{name} = {delay:g} s -> {steps[name] * dt:g} s")
         if rounded:
             warn(f"actuators at a step of {dt:g} s: {'; '.join(rounded)} "
                  "(rounded to whole steps)")
         return np.array([
-            self.max_steer, self.max_steer_rate * dt, a_s, _steps(self.steer_delay, dt),
+            self.max_steer, self.max_steer_rate * dt, a_s, steps["steer_delay"],
             self.max_drive_torque, self.max_power * self.wheel_radius, self.max_brake_torque,
-            a_t, _steps(self.torque_delay, dt),
+            a_t, steps["torque_delay"],
         ])
-
-
-def _steps(delay: float, dt: float) -> int:
-    """A dead time [s] in whole steps of ``dt`` [s], to the nearest (module docstring)."""
-    return round(delay / dt)
 
 
 def actuator_state(params: ActuatorParams, dt: float, steer0: float = 0.0,
                    torque0: float = 0.0) -> np.ndarray:
     """Initial state for :func:`actuate_step`: outputs and the dead-time ring buffers."""
-    n_s = _steps(params.steer_delay, dt) + 1
-    n_t = _steps(params.torque_delay, dt) + 1
+    n_s = whole_steps(params.steer_delay, dt)[0] + 1
+    n_t = whole_steps(params.torque_delay, dt)[0] + 1
     depth = max(n_s, n_t)
     # layout: [steer_out, torque_out, write_index, steer_buf(depth), torque_buf(depth)]
     st = np.empty(3 + 2 * depth)

@@ -546,7 +546,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     ``Monza``; :class:`~flatfree.scenario.Scenario`). Raises :class:`InputError` (exit 2) on
     bad input.
     """
-    from flatfree.scenario import _TRACK_FILE_KEYS, scenario_with_settings
+    from flatfree.scenario import scenario_with_settings
 
     if track is not None and recording is not None:
         raise _fail("give --track or --recording, not both")
@@ -565,15 +565,6 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if cr_scale is not None:
             ctrl_settings["cr_scale"] = cr_scale
         changes["controller_settings"] = ctrl_settings
-        # a new track or a recording: the old file's shape settings go (as a --set of the
-        # track or recording drops them; a --set after this may give them for the new one)
-        fresh = dict.fromkeys(_TRACK_FILE_KEYS)
-        if track is not None:
-            changes["reference"] = dataclasses.replace(sc.reference, track=track,
-                                                       recording=None, **fresh)
-        if recording is not None:
-            changes["reference"] = dataclasses.replace(sc.reference, track=None,
-                                                       recording=recording, **fresh)
         if vehicle is not None:
             # a file's or a recorded scenario's car, with its tuning as below (the description
             # is the file's own); a named track scenario has it already (_load_base): no change
@@ -591,6 +582,11 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             changes["timing"] = dataclasses.replace(sc.timing, duration_s=duration_s)
         noise_setting = [] if noise is None else [f"noise={'true' if noise else 'false'}"]
         sc = sc.with_(**changes)
+        # a new track or a recording, as its setting: the other one and the old file's shape
+        # settings go (a --set after this may give them for the new one)
+        for key, value in (("reference.track", track), ("reference.recording", recording)):
+            if value is not None:
+                sc = scenario_with_settings(sc, {key: value})
         if control_period_s is not None:
             sc = sc.with_control_period(control_period_s)
         sc = scenario_with_settings(sc, [*noise_setting, *settings])

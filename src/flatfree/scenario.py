@@ -115,6 +115,7 @@ from flatfree._validate import (
     positive,
     positive_or_inf,
     whole,
+    whole_steps,
 )
 from flatfree.sensors import SENSOR_CHANNELS, SensorChannel, SensorSuite
 from flatfree.vehicles.params import VehicleParams, load_vehicle
@@ -277,8 +278,8 @@ class Timing:
         if self.duration_s is not None:
             positive("timing.duration_s", self.duration_s, "s")
         for k in ("control_dt_s", "log_dt_s"):
-            ratio = getattr(self, k) / self.plant_dt_s
-            if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            n, moved = whole_steps(getattr(self, k), self.plant_dt_s)
+            if moved or n < 1:
                 raise ValueError(
                     f"timing.{k} = {getattr(self, k)!r} s: must be a whole multiple of "
                     f"plant_dt_s = {self.plant_dt_s!r} s"

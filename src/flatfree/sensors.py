@@ -55,7 +55,7 @@ from types import MappingProxyType
 import numpy as np
 from numba import njit
 
-from flatfree._validate import finite, nonnegative, one_of, positive
+from flatfree._validate import finite, nonnegative, one_of, positive, whole_steps
 from flatfree._vecmath import no_refcount
 from flatfree._warn import warn
 
@@ -187,18 +187,19 @@ class SensorSuite:
         for i, ch in enumerate(chans):
             table[i, _NOISE] = 1.0
             table[i, _BIAS] = ch.bias
-            table[i, _PERIOD] = (
-                1 if ch.rate_hz is None else max(1, round(1.0 / (ch.rate_hz * dt_control)))
-            )
-            table[i, _DELAY] = round(ch.delay_s / dt_control)
             # the controller's clock is all a channel has: say where it moves a setting
-            if abs(table[i, _DELAY] * dt_control - ch.delay_s) > 1e-9 * dt_control:
+            delay, moved = whole_steps(ch.delay_s, dt_control)
+            table[i, _DELAY] = delay
+            if moved:
                 rounded.append(f"{names[i]}.delay_s = {ch.delay_s:g} s -> "
-                               f"{table[i, _DELAY] * dt_control:g} s")
-            if ch.rate_hz is not None and abs(
-                    table[i, _PERIOD] * dt_control * ch.rate_hz - 1.0) > 1e-9:
-                rounded.append(f"{names[i]}.rate_hz = {ch.rate_hz:g} Hz -> "
-                               f"{1.0 / (table[i, _PERIOD] * dt_control):g} Hz")
+                               f"{delay * dt_control:g} s")
+            table[i, _PERIOD] = 1
+            if ch.rate_hz is not None:
+                period, moved = whole_steps(1.0 / ch.rate_hz, dt_control)
+                table[i, _PERIOD] = max(1, period)
+                if moved or period < 1:
+                    rounded.append(f"{names[i]}.rate_hz = {ch.rate_hz:g} Hz -> "
+                                   f"{1.0 / (table[i, _PERIOD] * dt_control):g} Hz")
         if rounded:
             warn(f"sensors at a control period of {dt_control:g} s: {'; '.join(rounded)} "
                  "(rounded to whole control periods)")

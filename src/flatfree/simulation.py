@@ -84,6 +84,7 @@ from flatfree.controllers.vehicle import (
     settings_from_mapping,
     vehicle_step,
     wants_ey_ddot,
+    warn_if_untuned_period,
     y2_per_r,
 )
 from flatfree.metrics import wrap_angle
@@ -106,7 +107,7 @@ from flatfree.tracks import (
     reference_states_3dof,
     sample_reference,
 )
-from flatfree.tracks.speed import _drive_acc, _drive_array
+from flatfree.tracks.speed import _drive_array, _power_cap
 from flatfree.trajectory import Status, Trajectory
 from flatfree.units import G
 from flatfree.vehicles import VehicleParams
@@ -563,13 +564,9 @@ def _flying_lap_kernel(s, v_ref, drv, closed, max_laps, v):
     v0 = v_ref[0]
     for _ in range(max_laps if closed else 1):
         v[0] = v0
-        for i in range(s.shape[0] - 1):
-            ds = s[i + 1] - s[i]
-            w = v[i] * v[i]
-            a0 = _drive_acc(v[i], drv)
-            w1 = w + 2.0 * ds * a0  # Heun predictor in v^2
-            w1 = w + ds * (a0 + _drive_acc(math.sqrt(max(w1, 0.0)), drv))
-            v[i + 1] = min(v_ref[i + 1], math.sqrt(max(w1, 0.0)))
+        for i in range(s.shape[0] - 1):  # the speed profile's drive step, no friction limit
+            w1 = _power_cap(v[i] * v[i], s[i + 1] - s[i], math.inf, drv)
+            v[i + 1] = min(v_ref[i + 1], math.sqrt(w1))
         if not closed:
             break
         v0_next = min(v_ref[0], v[v.shape[0] - 1])  # s[-1] is s[0] one lap on
@@ -689,8 +686,8 @@ def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
 
 
 #: A reference asking more than this times ``road.mu g`` is warned about (:func:`_check_road`):
-#: a profile planned for the road exceeds its friction ellipse by ~0.2 % where the table's
-#: samples meet (4.91 against 4.90 m/s^2 at mu 0.5 on Norisring).
+#: a profile planned for the road exceeds its friction ellipse by ~0.1 % where the table's
+#: samples meet (4.909 against 4.903 m/s^2 at mu 0.5 on Norisring, tests/test_simulation.py).
 _GRIP_MARGIN = 1.01
 
 
@@ -806,6 +803,7 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
                                           cr=settings.cr_scale * bic.cr, mass=bic.m,
                                           iz=bic.iz, lf=bic.lf, lr=bic.lr)
     else:
+        warn_if_untuned_period(sc.controller, settings, sc.timing.control_dt_s)
         ctrl = build_mfc(sc.controller, settings, dt=sc.timing.control_dt_s, actuators=act,
                          mass=vehicle.mass, iz=vehicle.iz, lf=vehicle.lf,
                          steer0=float(lat.delta[0]))

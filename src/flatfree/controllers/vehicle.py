@@ -123,6 +123,7 @@ __all__ = [
     "VehicleControllerArrays",
     "settings_from_mapping",
     "build_mfc",
+    "warn_if_untuned_period",
     "build_flatness",
     "flatness_params",
     "vehicle_step",
@@ -241,7 +242,7 @@ _NATURAL_MIN_WINDOW = 3
 _PERIOD_WARN_RATIO = 1.5
 
 
-def _warn_if_untuned_period(controller: str, settings, dt: float) -> None:
+def warn_if_untuned_period(controller: str, settings, dt: float) -> None:
     """Warn when a model-free controller runs at a period other than :data:`TUNED_PERIOD_S`
     with its estimator windows left at the counts tuned at 1 kHz (the defaults) and their
     durations more than 1.5x off the tuned ones: at 100 Hz the natural-output controller's
@@ -875,7 +876,6 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                          0.0, 0.0, 0.0, *_outer_coef(s2, dt)])
     else:
         raise ValueError(f"controller = {controller!r}: expected 'mfc-flat' or 'mfc-natural'")
-    _warn_if_untuned_period(controller, settings, dt)
     p_lon = lon.to_array()
     p_lat = lat.to_array()
     return VehicleControllerArrays(int(kind), p_lon, make_state(p_lon), p_lat,
@@ -1114,6 +1114,7 @@ class NaturalOutputController:
         self._ref = np.zeros(len(CREF))
         self._act_p = actuators.to_array(self._dt)
         self._prev = np.zeros(2)  # previous commands (torque, steer)
+        warn_if_untuned_period("mfc-natural", settings, self._dt)  # once, not at every reset
         self.reset()
 
     @property

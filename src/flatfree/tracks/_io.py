@@ -143,11 +143,7 @@ def resolve(name_or_path: str | Path, kind: str) -> tuple[Any, str]:
         return p, str(p)
     name = bundled_name(name_or_path, kind)
     if name is not None:
-        if kind == "track" and name == LVMS_NAME:
-            return None, LVMS_NAME
-        own = name in _NAMES[kind]()  # else a recording's name given as a track
-        folder = _FOLDERS[kind] if own else _RECORDINGS
-        return folder / f"{name}.csv", f"{name}.csv"
+        return bundled_file(name, kind)
     key = str(name_or_path).strip()
     if looks_like_path(key):
         if kind == "raceline":
@@ -159,6 +155,16 @@ def resolve(name_or_path: str | Path, kind: str) -> tuple[Any, str]:
     raise ValueError(
         f"unknown {kind} {str(name_or_path)!r}; bundled names: {', '.join(names)}{extra}{path}"
     )
+
+
+def bundled_file(name: str, kind: str) -> tuple[Any, str]:
+    """``(file, display_name)`` of the bundled ``name`` as :func:`bundled_name` spells it, a
+    file of the current folder of that name notwithstanding (:func:`resolve` looks for that)."""
+    if kind == "track" and name == LVMS_NAME:
+        return None, LVMS_NAME
+    own = name in _NAMES[kind]()  # else a recording's name given as a track
+    folder = _FOLDERS[kind] if own else _RECORDINGS
+    return folder / f"{name}.csv", f"{name}.csv"
 
 
 def _not_bundled(name_or_path) -> ValueError:

@@ -245,6 +245,11 @@ def read_track_points(name_or_path: str | Path, *, raceline: bool = False) -> Tr
         Unknown name, missing file, or a defective file (message with file and line).
     """
     file, display = _io.resolve(name_or_path, "raceline" if raceline else "track")
+    return _points_of(file, display, bundled=not Path(name_or_path).is_file())
+
+
+def _points_of(file, display: str, bundled: bool) -> TrackPoints:
+    """:func:`read_track_points` of a resolved ``(file, display)`` (:func:`_io.resolve`)."""
     if file is None:
         return lvms_centerline()
     raw = _io.read_csv(file, display)
@@ -252,8 +257,7 @@ def read_track_points(name_or_path: str | Path, *, raceline: bool = False) -> Tr
     if raw.fmt == "recording":
         from flatfree.tracks.recording import Recording
 
-        rec = Recording.from_raw(raw, name, bundled=not Path(name_or_path).is_file())
-        return rec.track_points()
+        return Recording.from_raw(raw, name, bundled=bundled).track_points()
     return _points_from_raw(raw, name)
 
 
@@ -306,18 +310,21 @@ def load_track(
     if not Path(name_or_path).is_file():  # a file is read as the file (module docstring)
         name = _io.bundled_name(name_or_path, "raceline" if raceline else "track")
         if name is not None:
+            args = (name, raceline, closed, ds, smoothing_length)
             try:
-                track, said = _bundled_track(name, raceline, closed, ds, smoothing_length)
+                hash(args)
             except TypeError:  # an unhashable argument: the builder's to refuse, naming it
-                return _build_track(name_or_path, raceline, closed, ds, smoothing_length)
+                return _build_track(read_track_points(name_or_path, raceline=raceline),
+                                    *args[1:])
+            track, said = _bundled_track(*args)
             for message, category in said:  # what its build said, said on every call
                 warn(message, category)
             return track
-    return _build_track(name_or_path, raceline, closed, ds, smoothing_length)
+    return _build_track(read_track_points(name_or_path, raceline=raceline), raceline, closed,
+                        ds, smoothing_length)
 
 
-def _build_track(name_or_path, raceline, closed, ds, smoothing_length) -> Track:
-    pts = read_track_points(name_or_path, raceline=raceline)
+def _build_track(pts: TrackPoints, raceline, closed, ds, smoothing_length) -> Track:
     return pts.to_track(closed=closed, ds=ds, smoothing_length=smoothing_length,
                         name=f"{pts.name} raceline" if raceline else None)
 
@@ -330,9 +337,12 @@ def _bundled_track(name: str, raceline: bool, closed, ds, smoothing_length):
     16 latest are kept (a Spa geometry is 0.56 MB at the default ds, 20x that at ds =
     0.05 m). The package's files do not change under a running process, and a Track is
     immutable (frozen, its geometry a read-only view that cannot be made writeable), so every
-    caller may share it. Building one (reading, smoothing, the spline, the resampling) took
-    ~6 of the ~13.5 ms that prepared a Norisring run (session 16)."""
+    caller may share it. Building one (reading, smoothing, the spline, the resampling) is most
+    of a process's first ``prepare`` (benchmarks/profile_closed_loop.py part 4 prints both)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        track = _build_track(name, raceline, closed, ds, smoothing_length)
+        # the bundled file of that name, not a file of the current folder spelled like it
+        pts = _points_of(*_io.bundled_file(name, "raceline" if raceline else "track"),
+                         bundled=True)
+        track = _build_track(pts, raceline, closed, ds, smoothing_length)
     return track, tuple((str(w.message), w.category) for w in caught)
