@@ -129,8 +129,8 @@ def test_an_open_arc_keeps_its_curvature_to_the_ends(radius, limit):
 def test_a_noisy_open_arc_s_end_curvature_is_as_good_as_inside():
     """With 2 cm of white noise on points a metre apart (R = 100 m, 20 m cut-off, 20 draws),
     the relative curvature error at the two ends is 3.3 % RMS (8.5 % max), as inside the path
-    (3.6 % RMS): the continuation adds no noise of its own (a cubic's end tangent gave 12 %
-    RMS; no continuation 103 %, the curvature forced to 0)."""
+    (3.6 % RMS): the continuation adds no noise of its own (benchmarks/open_path_ends.py: a
+    cubic's end tangent 12 % RMS; no continuation 103 %, the curvature forced to 0)."""
     ends, inside = [], []
     for seed in range(20):
         trk = T.Track.from_points(*_open_arc(100.0, 300.0, 0.02, seed), closed=False)

@@ -3,8 +3,8 @@
 Conventions: ISO 8855 axes (x forward, y left, z up), SI units inside, reference point the CoG.
 
 The names below are the curated public API. They are imported on first use (PEP 562), so
-``import flatfree`` stays cheap (~10 ms in a fresh process, ~1 ms of it the check below) and
-its one side effect is on numba's cache: when the
+``import flatfree`` stays cheap (9-13 ms in a fresh process, of which the check below takes
+~1-3 ms: benchmarks/bench_import.py) and its one side effect is on numba's cache: when the
 package's sources changed since the last import, their stale compiled functions are cleared
 (:mod:`flatfree._jitcache`). Subpackages hold the rest:
 :mod:`flatfree.vehicles`, :mod:`flatfree.tires`, :mod:`flatfree.models`,

@@ -480,7 +480,8 @@ def _lowpass(v: np.ndarray, h: float, cutoff: float, periodic: bool) -> np.ndarr
     m, 0.963 at R = 50 m (before the continuation: -0.04, the curvature pulled to 0 within
     about one cut-off length of the ends and overshooting 14 % at 10 m); with 2 cm of white
     noise on the points its error at the ends is 3.3 % RMS, as inside the path (3.6 %),
-    against 12 % for a cubic's tangent (tests/test_tracks_geometry.py).
+    against 12 % for a cubic's tangent (benchmarks/open_path_ends.py; the tests hold the first
+    three figures: tests/test_tracks_geometry.py).
     """
     n = v.shape[0]
     pad = 0

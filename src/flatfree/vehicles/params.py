@@ -510,7 +510,8 @@ def load_vehicle(name_or_path: str | Path, **overrides: Any) -> VehicleParams:
 def _preset(name: str) -> VehicleParams:
     """A bundled preset, read once per process: the package's files do not change under a
     running process (an edit of a preset in an editable install is seen by the next one);
-    reading the peugeot406 and its two tyre files took ~1 ms of each run's preparation."""
+    reading the peugeot406 and its two tyre files took a millisecond or two of each run's
+    preparation (benchmarks/profile_closed_loop.py part 4)."""
     return _vehicle_from_file(_DATA / f"{name}.toml", name)
 
 
