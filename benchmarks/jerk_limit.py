@@ -3,7 +3,7 @@ neglects, and what it does in the closed loop (issue 7).
 
 Run as a script::
 
-    python benchmarks/jerk_limit.py                       # parts 1-5
+    python benchmarks/jerk_limit.py                       # parts 0-5 and 7
     python benchmarks/jerk_limit.py --skip 4 --spa-seeds 30   # and the Spa sweep of `paper`
 
 0. the order of magnitude behind ``J_LAT_HANDLING``: the linear 3DoF peugeot406's mean delay
@@ -20,7 +20,10 @@ Run as a script::
 3. the closed loop on LVMS smoothed at 20 m, a full lap, with and without the limit;
 4. the largest limit with which each noise-free design completes the first 10 s there;
 5. the closed loop on the bundled tracks with and without the limit;
-6. (``--spa-seeds N``) `paper` on Spa, seeds 0..N-1, with and without the limit.
+6. (``--spa-seeds N``) `paper` on Spa, seeds 0..N-1, with and without the limit;
+7. the references above ``simulation.ROUGH_JERK`` that set it (Norisring's race line, LVMS
+   smoothed at 20 m with and without its start's bridge): the largest steady lateral jerk,
+   where, and the noise-free natural-output designs' laps without and with the limit 15.
 
 Nothing here is a test; the figures are in benchmarks/README.md, "Lateral-jerk limit".
 """
@@ -182,6 +185,27 @@ def _spa_sweep(seeds: int) -> None:
               f"left: {', '.join(left) or 'none'}", flush=True)
 
 
+def _above_rough(rough: str) -> None:
+    from flatfree.simulation import ROUGH_JERK, prepare
+
+    print(f"\n7. the references above ROUGH_JERK = {ROUGH_JERK:g} m/s^3: the largest v^3 "
+          "|dkappa/ds| and where; the noise-free natural-output designs, a lap")
+    cases = (("Norisring race line", None, ["reference.line=raceline"]),
+             ("LVMS at 20 m, unbridged", rough, []),
+             ("LVMS at 20 m, bridged", "LVMS", ["reference.smoothing_length_m=20"]))
+    for label, track, settings in cases:
+        for name in ("paper-noise-free", "paper-imu-noise-free"):
+            sc = named_scenario(name, track=track).with_settings(settings)
+            ref = prepare(sc).reference
+            jerk = np.abs(np.asarray(ref["vx"]) ** 3 * np.asarray(ref["dkappa_ds"]))
+            i = int(np.nanargmax(jerk))
+            if name == "paper-noise-free":
+                print(f"  {label}: {jerk[i]:.1f} m/s^3 at s = {float(ref['s'][i]):.0f} m "
+                      f"({float(ref['vx'][i]):.1f} m/s)")
+            for j in (math.inf, J_LAT_HANDLING):
+                print("    " + _closed(name, sc, j), flush=True)
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip", default="", help="parts to skip, e.g. 3,4")
@@ -208,6 +232,8 @@ def main(argv: list[str] | None = None) -> None:
             _rough(rough, args.rough_seeds)
         if "4" not in skip:
             _thresholds(rough)
+        if "7" not in skip:
+            _above_rough(rough)
     if "5" not in skip:
         _bundled(track_names())
     if args.spa_seeds > 0:

@@ -683,9 +683,10 @@ def test_malformed_tables_in_a_file_are_value_errors(text, words):
 
 def test_a_car_the_model_free_settings_were_not_tuned_on_is_warned_about(tmp_path):
     """A car file, whatever it holds (here the dallara_av21's own file renamed), or a bundled
-    preset without a tuning runs the peugeot406's alpha_lat: every run says so (prepare),
-    however the scenario was built. Not for the tuned cars, for the flatness controller (its
-    model is the car's), or when controller_settings set alpha_lat."""
+    preset without a tuning runs the peugeot406's alpha_lat, and so does a tuned car whose
+    scenario's settings leave alpha_lat at that default: every run says so (prepare), however
+    the scenario was built. Not for the tuned cars on their tuning, for the flatness
+    controller (its model is the car's), or when controller_settings set alpha_lat."""
     import shutil
 
     from flatfree.scenarios import named_scenario
@@ -700,12 +701,27 @@ def test_a_car_the_model_free_settings_were_not_tuned_on_is_warned_about(tmp_pat
         with pytest.warns(UserWarning, match="alpha_lat") as got:
             prepare(sc)
         assert any(str(w.message).startswith(f"vehicle {car!r}: the ") for w in got)
+    # a tuned car whose scenario's settings are not its tuning: the tuned value is named
+    # (the flat-output scenario's {} kept by a bare change of the controller, or the car
+    # changed under the peugeot406's settings)
+    for sc in (named_scenario("paper-flatness", vehicle="dallara_av21",
+                              duration_s=1.0).with_settings(["controller=mfc-natural"]),
+               named_scenario("paper", duration_s=1.0).with_(vehicle="dallara_av21")):
+        with pytest.warns(UserWarning, match="alpha_lat at its default 30") as got:
+            prepare(sc)
+        assert any("set controller_settings.alpha_lat = 60" in str(w.message) for w in got)
+    # an untuned car's message quotes its steer gain beside the tuned cars'
+    with pytest.warns(UserWarning, match=r"this car's 119; peugeot406: 65, tuned 30; "
+                                         r"dallara_av21: 95, tuned 60"):
+        prepare(named_scenario("paper", vehicle="bmw320i", duration_s=1.0))
     retuned = named_scenario("paper", vehicle="bmw320i", duration_s=1.0).with_settings(
         ["controller_settings.alpha_lat=35"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the dallara's steer lock on Norisring's hairpin
-        warnings.filterwarnings("error", message="vehicle .* settings were tuned on")
+        warnings.filterwarnings("error", message="vehicle .* alpha_lat")
         for sc in (named_scenario("paper", vehicle="Peugeot406", duration_s=1.0),
+                   named_scenario("paper", vehicle="dallara_av21", duration_s=1.0),
+                   named_scenario("paper-imu", vehicle="dallara_av21", duration_s=1.0),
                    named_scenario("paper-flatness", vehicle="bmw320i", duration_s=1.0),
                    named_scenario("paper-mismatch", vehicle=str(copy), duration_s=1.0),
                    retuned):

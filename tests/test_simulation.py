@@ -723,11 +723,11 @@ def test_a_curve_beyond_the_steer_lock_is_warned_about():
     from flatfree.simulation import prepare
 
     with pytest.warns(UserWarning, match=r"radius 9\.9 m.*dallara_av21's max_steer = 0\.279"):
-        prepare(named_scenario("paper").with_(vehicle="dallara_av21"))
+        prepare(named_scenario("paper", vehicle="dallara_av21"))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         prepare(named_scenario("paper"))
-        prepare(named_scenario("paper", track="LVMS").with_(vehicle="dallara_av21"))
+        prepare(named_scenario("paper", track="LVMS", vehicle="dallara_av21"))
 
 
 def test_the_power_cap_counts_a_spinning_driven_wheel():

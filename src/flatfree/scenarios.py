@@ -176,35 +176,70 @@ IMU_SETTINGS: dict[str, float | int | str] = {"estimator_lat": "imu", "yaw_dampi
                                               "denoise_yaw": 20}
 
 
-# the natural-output settings of each car they were tuned on (natural_settings)
-_NATURAL_BY_CAR = {"peugeot406": NATURAL_SETTINGS, "dallara_av21": DALLARA_NATURAL_SETTINGS}
+# each model-free design's settings by the car they were tuned on (natural_settings; the
+# flat-output design's defaults are the peugeot406's)
+_TUNINGS: dict[str, dict[str, dict[str, float | int | str]]] = {
+    "mfc-natural": {"peugeot406": NATURAL_SETTINGS, "dallara_av21": DALLARA_NATURAL_SETTINGS},
+    "mfc-flat": {"peugeot406": {}},
+}
+_NATURAL_BY_CAR = _TUNINGS["mfc-natural"]
 
 #: The cars each model-free design's settings were tuned on (its alpha_lat is tied to the car:
-#: MfcNaturalSettings, MfcFlatSettings); any other car runs the peugeot406's settings.
-TUNED_VEHICLES: dict[str, tuple[str, ...]] = {"mfc-natural": tuple(_NATURAL_BY_CAR),
-                                             "mfc-flat": ("peugeot406",)}
+#: MfcNaturalSettings, MfcFlatSettings); a car's tuning is not its scenario's unless the
+#: scenario's settings hold it (:func:`natural_settings`, :func:`warn_if_untuned`).
+TUNED_VEHICLES: dict[str, tuple[str, ...]] = {c: tuple(t) for c, t in _TUNINGS.items()}
 
 
 def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
-                    settings: Mapping[str, object]) -> None:
-    """Warn that ``controller``'s settings were not tuned on ``vehicle`` (a car other than
-    :data:`TUNED_VEHICLES`' bundled presets, a file too, whatever it holds) when ``settings``
-    (a scenario's ``controller_settings``) leave alpha_lat at the peugeot406's: alpha_lat
-    follows the car's steer gain. Nothing for the flatness controller (its model is the car's
-    own) or when alpha_lat is set. Said by every run (:func:`flatfree.simulation.prepare`)."""
-    tuned = TUNED_VEHICLES.get(controller)
-    if tuned is None or "alpha_lat" in settings or bundled_name(vehicle) in tuned:
+                    settings: Mapping[str, object], *, steer_gain: float | None = None) -> None:
+    """Warn that ``settings`` (a scenario's ``controller_settings``) run ``controller`` on
+    ``vehicle`` with an alpha_lat not tuned for it: they leave alpha_lat at its default (the
+    peugeot406's) and the car is another one -- a car tuned too (:data:`TUNED_VEHICLES`: the
+    message gives its value, :func:`natural_settings`), a preset without a tuning, or a file,
+    whatever it holds. alpha_lat follows the car's steer gain; ``steer_gain`` [(m/s^2)/rad],
+    the car's C_f / m (:meth:`Bicycle3DoFParams.from_vehicle
+    <flatfree.models.bicycle3dof.Bicycle3DoFParams.from_vehicle>`), is then quoted beside the
+    tuned cars' (the natural-output design). Nothing for the flatness controller (its model is
+    the car's own) or when alpha_lat is set. Said by every run
+    (:func:`flatfree.simulation.prepare`)."""
+    from flatfree.controllers.vehicle import settings_from_mapping
+
+    tunings = _TUNINGS.get(controller)
+    if tunings is None or "alpha_lat" in settings:
+        return
+    default = settings_from_mapping(controller, {}).alpha_lat
+    car = bundled_name(vehicle)
+    if car in tunings:
+        tuned = tunings[car].get("alpha_lat", default)
+        if tuned == default:
+            return
+        warn(f"vehicle {str(vehicle)!r}: the {controller} controller's settings leave alpha_lat "
+             f"at its default {default:g} (the peugeot406's); {car}'s tuning has {tuned:g} "
+             f"(flatfree.scenarios.natural_settings({car!r}), which named_scenario(..., "
+             f"vehicle=...) and flatfree run --controller / --vehicle take): set "
+             f"controller_settings.alpha_lat = {tuned:g}")
         return
     if controller == "mfc-natural":
-        how = ("alpha_lat [(m/s^2)/rad] follows the car's steer gain C_f/m (peugeot406: 65, "
-               "tuned 30; dallara_av21: 95, tuned 60)")
+        pairs = "; ".join(f"{c}: {_steer_gain(c):.0f}, tuned "
+                          f"{t.get('alpha_lat', default):g}" for c, t in tunings.items())
+        here = "" if steer_gain is None else f"this car's {steer_gain:.0f}; "
+        how = (f"alpha_lat [(m/s^2)/rad] follows the car's steer gain C_f/m ({here}{pairs})")
     else:
         how = ("alpha_lat [(kg m^2/s^2)/rad] is of the order of the steer's effect on y2' "
                "over the estimator window (MfcFlatSettings)")
     warn(f"vehicle {str(vehicle)!r}: the {controller} controller's settings were tuned on "
-         f"{' and '.join(tuned)} only and alpha_lat is the peugeot406's here; {how}: set "
+         f"{' and '.join(tunings)} only and alpha_lat is the peugeot406's here; {how}: set "
          "controller_settings.alpha_lat for this car (benchmarks/sweep_seeds.py --vehicle V "
          "--set alpha_lat=A measures it)")
+
+
+def _steer_gain(car: str) -> float:
+    """C_f / m [(m/s^2)/rad] of a bundled preset (its 3DoF model's front axle stiffness)."""
+    from flatfree.models.bicycle3dof import Bicycle3DoFParams
+    from flatfree.vehicles import load_vehicle
+
+    model = Bicycle3DoFParams.from_vehicle(load_vehicle(car))
+    return model.cf / model.m
 
 
 def natural_settings(vehicle: str, *, imu: bool = False) -> dict[str, float | int | str]:
@@ -258,7 +293,8 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         --vehicle`` does; a car they were not tuned on (:data:`TUNED_VEHICLES`: a file
         too, whatever it holds) runs the peugeot406's, and its runs warn
         (:func:`warn_if_untuned`). (``scenario.with_(vehicle=...)`` changes the car and
-        keeps every other setting, the tuning included.) An error for the recorded scenarios,
+        keeps every other setting, the tuning included: a run whose alpha_lat is then
+        another car's warns too, naming the car's tuned value.) An error for the recorded scenarios,
         whose car is the recording's, and for a name that is not bundled (``ValueError`` here;
         a path is read at the run).
 

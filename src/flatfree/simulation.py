@@ -34,7 +34,8 @@ and ``yaw_error = psi - (psi_ref(s) - beta_ref(s))`` with the reference sideslip
 ``beta_ref = atan(vy_ref / vx_ref)`` of the 3DoF model whose CoG follows the path
 (:func:`flatfree.tracks.reference_states_3dof`, ``method="path"``; ISO 8855: the velocity's
 course is ``psi + beta``, so the heading that keeps the CoG velocity tangent to the path is
-``psi_ref - beta_ref``; 0 for a recorded reference, whose yaw is the recorded one).
+``psi_ref - beta_ref``; for a recorded reference the gap between the path's course and the
+recorded yaw, so that the reference yaw is the recorded one).
 
 The car starts on the reference at ``s = 0`` (position, heading, sideslip angle, path
 curvature), at the speed it can have there: on a closed track the power-limited speed of a
@@ -582,7 +583,9 @@ class Prepared:
     scenario: Scenario
     vehicle: VehicleParams
     reference: Reference
-    beta_ref: np.ndarray  # reference sideslip on the reference grid [rad]
+    # reference sideslip on the reference grid [rad]: the path's course minus the reference
+    # yaw (the 3DoF model's on a track, the recorded one for a recording; module docstring)
+    beta_ref: np.ndarray
     controller: VehicleControllerArrays
     actuators: ActuatorParams
     cref: np.ndarray  # controller references: time, then the CREF columns
@@ -642,9 +645,10 @@ def _warn_if_beyond_steer_lock(ref: Reference, vehicle: VehicleParams) -> None:
 #: natural-output designs leave on the peugeot406, noise-free, and completed with
 #: ``reference.j_lat_max`` = 15: Norisring's race line (34.7 at 106 m, at 50 m/s: they spin
 #: off at 4.4-4.5 s), and the LVMS centerline smoothed at 20 m before session 13 bridged its
-#: start (28.7: 4-6 s; tests/test_speed_jerk.py) and after (29.5 at 1071 m: ``paper`` leaves
-#: at 30.2 s). A threshold between what was seen to work and to fail (session 16,
-#: benchmarks/README.md "The noise drawn per channel"), not a property of every car.
+#: start (28.7 at 869 m: 5.0-5.2 s; tests/test_speed_jerk.py) and after (29.5 at 1071 m:
+#: both leave at 30.2 s); benchmarks/jerk_limit.py part 7 prints these. A threshold between
+#: what was seen to work and to fail (benchmarks/README.md "The noise drawn per channel"),
+#: not a property of every car.
 ROUGH_JERK = 25.0
 
 
@@ -764,20 +768,25 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     bic = Bicycle3DoFParams.from_vehicle(vehicle)
     if python_controller is None:  # said about the built-in controller only
         _warn_if_rough(ref, sc)
-        warn_if_untuned(sc.vehicle, sc.controller, sc.controller_settings)
+        warn_if_untuned(sc.vehicle, sc.controller, sc.controller_settings,
+                        steer_gain=bic.cf / bic.m)
         _warn_if_flat_output_singular(ref, bic, sc.controller, vehicle)
     # the controllers' lateral references: the 3DoF model with the yaw rate V kappa of the path
     # ("dynamic"; each design's documented reference)
     lat = reference_states_3dof(ref, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
                                 lf=bic.lf, lr=bic.lr)
     recorded = sc.reference.recording is not None
-    # the yaw error's reference sideslip (metrics.py) and the start's: the 3DoF model with its
-    # CoG on the path ("path"). Planning the flat-output designs' y2 from it instead made them
-    # leave Spa, the mismatched one Norisring too (noise-free, seed 0: its y2 carries the model's
-    # weakly damped yaw mode, which the 10DoF car then rings with; benchmarks/README.md "The
-    # yaw error's reference: the 3DoF model on the path")
-    beta = np.zeros_like(ref["vx"])
-    if not recorded:
+    # the yaw error's reference sideslip (metrics.py) and the start's. On a track the 3DoF
+    # model with its CoG on the path ("path"). Planning the flat-output designs' y2 from it
+    # instead made them leave Spa, the mismatched one Norisring too (noise-free, seed 0: its y2
+    # carries the model's weakly damped yaw mode, which the 10DoF car then rings with;
+    # benchmarks/README.md "The yaw error's reference: the 3DoF model on the path")
+    if recorded:
+        # the recorded yaw is the reference yaw: the gap to the path's course (the smoothed
+        # positions' tangent; 0.61 deg at the LVMS recording's start) is the sideslip the car
+        # starts with and the yaw error's reference
+        beta = wrap_angle(ref["psi"] - ref.extras["psi_recorded"])
+    else:
         lat_p = reference_states_3dof(ref, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
                                       lf=bic.lf, lr=bic.lr, method="path")
         beta = np.arctan2(lat_p.vy, np.maximum(lat_p.vx, 1e-6))
@@ -838,7 +847,7 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     if not recorded and ref.path.closed:
         vx0 = float(flying_lap_speed(ref["s_path"], ref["vx"], vehicle, closed=True)[0])
     scale = vx0 / vx_ref0 if vx_ref0 > 0.0 else 1.0
-    vy0 = 0.0 if recorded else vx0 * math.tan(float(beta[0]))  # the reference's sideslip
+    vy0 = vx0 * math.tan(float(beta[0]))  # the reference's sideslip
     r0 = scale * float(row[RS.R])  # Vx kappa at the car's speed
     psi0 = float(row[RS.PSI]) - float(beta[0])  # heading = course - sideslip (ISO 8855)
     if sc.plant == "10dof":
@@ -1112,13 +1121,10 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     signals = {m.name.lower(): log[:, m] for m in LOG if m is not LOG.T}
     # errors against the reference by arc length (metrics.py definitions)
     s_ref = ref["s_path"]
-    if "psi_recorded" in ref.extras:
-        # a recording: the recorded yaw (issue 7's definition; the path's tangent is the course
-        # error's reference below). The LVMS recording's phi follows its course, atan2(dy, dx),
-        # signed median difference -0.03 deg (its PROVENANCE.md): its car's sideslip is not in it
-        psi_full = ref.extras["psi_recorded"]
-    else:
-        psi_full = ref["psi"] - prep.beta_ref  # heading = path course - sideslip (ISO 8855)
+    # heading = path course - sideslip (ISO 8855): for a recording the recorded yaw (issue 7's
+    # definition; prepare). The LVMS recording's phi follows its course, atan2(dy, dx), signed
+    # median difference -0.03 deg (its PROVENANCE.md): its car's sideslip is not in it
+    psi_full = ref["psi"] - prep.beta_ref
     s_log = np.clip(log[:, LOG.S], s_ref[0], s_ref[-1])
     signals["lateral_error"] = log[:, LOG.E_Y] - np.interp(s_log, s_ref, ref["e_y_ref"])
     signals["yaw_error"] = wrap_angle(log[:, LOG.PSI] - np.interp(s_log, s_ref, psi_full))
