@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from flatfree._validate import as_real, real_array
+from flatfree._validate import as_real, boolean, real_array
 
 
 def test_real_array_returns_float64_arrays_as_they_are_and_converts_numbers():
@@ -92,3 +92,11 @@ def test_whole_strict_takes_integers_only():
         with pytest.raises(ValueError, match=rf"^n = .+: must be an integer >= 2, given as an "
                                              rf"int \(not {kind}\)$"):
             whole("n", bad, 2, "samples", strict=True)
+
+
+def test_boolean_takes_bools_only_and_names_the_field():
+    assert boolean("noise", True) is True and boolean("noise", False) is False
+    for bad in (1, 0, "true", None, np.True_, 1.0):
+        with pytest.raises(ValueError, match=rf"^tire_lanes = {re.escape(repr(bad))}: "
+                                             "must be true or false$"):
+            boolean("tire_lanes", bad)

@@ -126,6 +126,14 @@ def whole(name: str, value, lo: int, unit: str = "", *, strict: bool = False) ->
     return int(v)
 
 
+def boolean(name: str, value) -> bool:
+    """``value`` if it is a ``bool`` (a TOML ``true``/``false``; not 0/1, not a string), else a
+    ``ValueError`` naming ``name`` and the value."""
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} = {value!r}: must be true or false")
+    return value
+
+
 def one_of(name: str, value, allowed: tuple[int, ...], hint: str = "") -> int:
     """One of the integers ``allowed`` (an order, a mode), as an int; an integral float such as
     a TOML ``2.0`` too. Booleans (NumPy's too: ``np.True_ == 1``), text, NaN and others raise;

@@ -9,11 +9,13 @@ them. (Python 3.12's ``skip_file_prefixes`` does this; the project supports 3.11
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import warnings
+from collections.abc import Iterator
 
-__all__ = ["warn"]
+__all__ = ["warn", "recording"]
 
 _PACKAGE = os.path.dirname(os.path.abspath(__file__)) + os.sep
 
@@ -26,3 +28,12 @@ def warn(message: str, category: type[Warning] = UserWarning) -> None:
         frame = frame.f_back
         level += 1
     warnings.warn(message, category, stacklevel=level)
+
+
+@contextlib.contextmanager
+def recording() -> Iterator[list[warnings.WarningMessage]]:
+    """Every warning of the block recorded in the list it yields, none shown (a repeated one
+    too: the filter "always"); the list holds those before an exception as well."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield caught

@@ -29,7 +29,6 @@ import sys
 import tempfile
 import textwrap
 import time
-import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -39,6 +38,7 @@ import numpy as np
 
 from flatfree import __version__
 from flatfree._timing import best_time
+from flatfree._warn import recording
 
 __all__ = ["main", "count_corners", "SCENARIO_TEMPLATE"]
 
@@ -327,8 +327,8 @@ a_brake_max = 6.0           # [m/s^2]
 v_max = 50.0                # [m/s]
 mu = 1.0                    # friction the speed profile plans with [-]
 j_lat_max = inf             # lateral jerk v^3 |dkappa/ds| [m/s^3]; inf: no limit; 15.0 keeps
-                            # a rough path drivable (costs a bundled track's lap 0.31 s at
-                            # most: Spa, 0.12 %)
+                            # a rough path drivable at a small cost in lap time (its cost on
+                            # the bundled tracks: flatfree.tracks.speed)
 drive_limit = false         # true: also within the car's drive limit (power, torque, drag)
 # closed = false            # a track file: open road (false) or loop (true); default: detected
 # smoothing_length_m = 20.0 # a track's smoothing cut-off wavelength [m], 0: none; default
@@ -600,8 +600,7 @@ def _collecting(warned: list[str]):
     """The library's warnings of the block appended to ``warned`` as text instead of shown
     (those before an exception too)."""
 
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with recording() as caught:
         try:
             yield
         finally:

@@ -110,6 +110,7 @@ from typing import Any
 from flatfree._names import anchored
 from flatfree._validate import (
     as_real,
+    boolean,
     finite,
     nonnegative,
     positive,
@@ -227,11 +228,9 @@ class ReferenceSpec:
         _choice("reference.line", self.line, LINES)
         finite("reference.lateral_offset_m", self.lateral_offset_m, "m")
         whole("reference.laps", self.laps, 1)
-        if not isinstance(self.drive_limit, bool):
-            raise ValueError(f"reference.drive_limit = {self.drive_limit!r}: must be true or "
-                             "false")
-        if self.closed is not None and not isinstance(self.closed, bool):
-            raise ValueError(f"reference.closed = {self.closed!r}: must be true or false")
+        boolean("reference.drive_limit", self.drive_limit)
+        if self.closed is not None:
+            boolean("reference.closed", self.closed)
         if self.smoothing_length_m is not None:  # 0: the points as given (load_track)
             nonnegative("reference.smoothing_length_m", self.smoothing_length_m, "m")
         if self.recording is not None:
@@ -448,8 +447,7 @@ class Scenario:
         _choice("controller", self.controller, CONTROLLERS)
         # an integral float too (a TOML 3.0), as laps; an integer exactly, however large
         object.__setattr__(self, "seed", whole("seed", self.seed, 0))
-        if not isinstance(self.noise, bool):
-            raise ValueError(f"noise = {self.noise!r}: must be true or false")
+        boolean("noise", self.noise)
         if self.noise and self.name.endswith(NOISE_FREE_SUFFIX):
             raise ValueError(
                 f"noise = True: the scenario's name {self.name!r} says noise-free; run "

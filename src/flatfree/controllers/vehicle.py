@@ -80,12 +80,12 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Self
+from typing import Any, ClassVar, Self
 
 import numpy as np
 from numba import njit
 
-from flatfree._validate import as_real, finite, positive, real, whole
+from flatfree._validate import as_real, boolean, finite, positive, real, whole
 from flatfree._warn import warn
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers._shell import independent_copy, nonfinite_command
@@ -192,14 +192,22 @@ def _check_schedule(value: str) -> None:
         raise ValueError(f"schedule = {value!r}: must be one of {', '.join(SCHEDULES)}")
 
 
-def _check_denoise(settings) -> None:
-    for k in ("denoise_lon", "denoise_lat", "denoise_yaw"):
-        if not hasattr(settings, k):
+def _least_samples(settings, k: str) -> int:
+    """The smallest count the sample-count field ``k`` of ``settings`` accepts: the estimator
+    windows' ``_LEAST_WINDOW`` (the natural-output iPD's nu = 2 fit takes 3), 2 for a
+    denoiser."""
+    return settings._LEAST_WINDOW if k.startswith("window") else 2
+
+
+def _check_sample_counts(settings) -> None:
+    """Each sample count of ``settings`` (:func:`sample_counts`) stored as an int (a TOML 100.0
+    too), at least :func:`_least_samples`; a denoiser may be 0 (off)."""
+    for k, v in sample_counts(settings).items():
+        if k.startswith("denoise") and as_real(v) == 0.0:
+            object.__setattr__(settings, k, 0)
             continue
-        v = getattr(settings, k)
-        # 0 (off), or a window of at least 2 samples, stored as an int (a TOML 100.0 too)
-        object.__setattr__(settings, k, 0 if as_real(v) == 0.0 else
-                           whole(k, v, 2, "samples (0: off)"))
+        unit = "samples (0: off)" if k.startswith("denoise") else "samples"
+        object.__setattr__(settings, k, whole(k, v, _least_samples(settings, k), unit))
 
 
 #: The control period [s] at which the model-free settings' sample counts (estimator windows,
@@ -221,7 +229,7 @@ def rescale_sample_counts(settings, dt: float, *, from_dt: float = TUNED_PERIOD_
     ``dt`` [s] so that each window and denoiser keeps its duration.
 
     A count ``n`` becomes the nearest whole number to ``n from_dt / dt``, at least the smallest
-    the settings accept (:data:`_MIN_SAMPLES`: 3 for the natural-output windows, 2 for the
+    the settings accept (:func:`_least_samples`: 3 for the natural-output windows, 2 for the
     others); 0 (a denoiser off) stays 0. Settings without sample counts
     (:class:`FlatnessSettings`) come back unchanged. The gains, time constants and rates of the
     settings are in seconds already and stay. What the durations are worth at another rate
@@ -229,14 +237,10 @@ def rescale_sample_counts(settings, dt: float, *, from_dt: float = TUNED_PERIOD_
     """
     dt = positive("dt", dt, "s")
     ratio = positive("from_dt", from_dt, "s") / dt
-    least = _MIN_SAMPLES.get(type(settings), {})
-    changes = {k: 0 if n == 0 else max(least.get(k, 2), round(n * ratio))
+    changes = {k: 0 if n == 0 else max(_least_samples(settings, k), round(n * ratio))
                for k, n in sample_counts(settings).items()}
     return dataclasses.replace(settings, **changes) if changes else settings
 
-
-# the natural-output controller's smallest estimator window (the iPD's nu = 2 fit) [samples]
-_NATURAL_MIN_WINDOW = 3
 
 # a window whose duration is off the tuned one by more than this factor is warned about
 _PERIOD_WARN_RATIO = 1.5
@@ -293,11 +297,8 @@ _OUTER_V_MIN = 5.0
 
 
 def _check_outer(settings) -> None:
-    if not isinstance(settings.path_correction, bool):
-        raise ValueError(f"path_correction = {settings.path_correction!r}: must be true or false")
-    for k in ("sideslip_feedforward", "outer_integral"):
-        if not isinstance(getattr(settings, k), bool):
-            raise ValueError(f"{k} = {getattr(settings, k)!r}: must be true or false")
+    for k in ("path_correction", "sideslip_feedforward", "outer_integral"):
+        boolean(k, getattr(settings, k))
     positive("outer_wn", settings.outer_wn, "rad/s")
     positive("outer_zeta", settings.outer_zeta, "-")
 
@@ -535,9 +536,12 @@ class MfcNaturalSettings(_SampleCountSettings):
     feed_applied: bool = True
     schedule: str = "path"
 
+    # the smallest estimator window (the iPD's nu = 2 fit) [samples]
+    _LEAST_WINDOW: ClassVar[int] = 3
+
     def __post_init__(self) -> None:
         _check_schedule(self.schedule)
-        _check_denoise(self)
+        _check_sample_counts(self)
         if finite("yaw_damping", self.yaw_damping, "s") < 0.0:
             raise ValueError(f"yaw_damping = {self.yaw_damping!r} s: must be >= 0")
         if self.estimator_lat not in ESTIMATORS_LAT:
@@ -547,8 +551,7 @@ class MfcNaturalSettings(_SampleCountSettings):
         positive("observer_wn", self.observer_wn, "rad/s")
         if finite("observer_bias_wn", self.observer_bias_wn, "rad/s") < 0.0:
             raise ValueError(f"observer_bias_wn = {self.observer_bias_wn!r} rad/s: must be >= 0")
-        if not isinstance(self.feed_applied, bool):
-            raise ValueError(f"feed_applied = {self.feed_applied!r}: must be true or false")
+        boolean("feed_applied", self.feed_applied)
         positive("alpha_lon", self.alpha_lon, "(m/s^2)/(N m)")
         positive("kp_lon", self.kp_lon, "1/s")
         positive("alpha_lat", self.alpha_lat, "(m/s^2)/rad")
@@ -559,9 +562,6 @@ class MfcNaturalSettings(_SampleCountSettings):
         if finite("wn_lat_ratio", self.wn_lat_ratio, "-") < 1.0:
             raise ValueError(f"wn_lat_ratio = {self.wn_lat_ratio!r}: must be >= 1")
         positive("zeta_lat", self.zeta_lat, "-")
-        for k in ("window_lon", "window_lat"):  # stored as ints (a TOML 100.0 too)
-            object.__setattr__(self, k, whole(k, getattr(self, k), _NATURAL_MIN_WINDOW,
-                                              "samples"))
         if self.derivative_lat not in ("model", "algebraic"):
             raise ValueError(
                 f"derivative_lat = {self.derivative_lat!r}: must be 'model' or 'algebraic'")
@@ -636,9 +636,12 @@ class MfcFlatSettings(_SampleCountSettings):
     sideslip_feedforward: bool = True
     outer_integral: bool = True
 
+    # the smallest estimator window (the iPI's nu = 1 fit) [samples]
+    _LEAST_WINDOW: ClassVar[int] = 2
+
     def __post_init__(self) -> None:
         _check_schedule(self.schedule)
-        _check_denoise(self)
+        _check_sample_counts(self)
         _check_outer(self)
         positive("alpha_lon", self.alpha_lon, "(m/s^2)/(N m)")
         finite("alpha_lat", self.alpha_lat, "(kg m^2/s^2)/rad")
@@ -649,8 +652,6 @@ class MfcFlatSettings(_SampleCountSettings):
         for k in ("ki_lon", "ki_lat"):
             if finite(k, getattr(self, k), "1/s^2") < 0.0:
                 raise ValueError(f"{k} = {getattr(self, k)!r} 1/s^2: must be >= 0")
-        for k in ("window_lon", "window_lat"):  # stored as ints (a TOML 100.0 too)
-            object.__setattr__(self, k, whole(k, getattr(self, k), 2, "samples"))
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -716,10 +717,6 @@ class FlatnessSettings:
         positive("cf_scale", self.cf_scale, "-")
         positive("cr_scale", self.cr_scale, "-")
 
-
-#: The smallest window each settings class accepts, where it is not 2 (its __post_init__).
-_MIN_SAMPLES = {MfcNaturalSettings: dict.fromkeys(("window_lon", "window_lat"),
-                                                  _NATURAL_MIN_WINDOW)}
 
 _SETTINGS = {"mfc-natural": MfcNaturalSettings, "mfc-flat": MfcFlatSettings,
              "flatness": FlatnessSettings}

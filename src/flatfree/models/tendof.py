@@ -218,7 +218,7 @@ import numpy as np
 from numba import njit
 
 from flatfree import _vecmath as vm
-from flatfree._validate import finite, positive, real_array, whole
+from flatfree._validate import boolean, finite, positive, real_array, whole
 from flatfree.tires import _lanes_g_plain as _mf_lanes_g_plain
 from flatfree.tires import _lanes_general as _mf_lanes_general
 from flatfree.tires import _mf_combined_lane, mf_combined, slip_speed, slip_stiffness
@@ -496,8 +496,7 @@ class TenDoFOptions:
     tire_lanes: bool = field(default=True, metadata={"unit": ""})
 
     def __post_init__(self) -> None:
-        if not isinstance(self.ackermann, bool):
-            raise ValueError(f"ackermann = {self.ackermann!r}: expected True or False")
+        boolean("ackermann", self.ackermann)
         positive("v_min_lat", self.v_min_lat, "m/s")
         v = finite("carcass_damping_ratio", self.carcass_damping_ratio, "-")
         if v < 0.0:
@@ -505,8 +504,7 @@ class TenDoFOptions:
         positive("brake_time_constant", self.brake_time_constant, "s")
         positive("sign_speed", self.sign_speed, "rad/s")
         positive("accel_filter_time", self.accel_filter_time, "s")
-        if not isinstance(self.tire_lanes, bool):
-            raise ValueError(f"tire_lanes = {self.tire_lanes!r}: expected True or False")
+        boolean("tire_lanes", self.tire_lanes)
 
 
 # --------------------------------------------------------------------------------------------

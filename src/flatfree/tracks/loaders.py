@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import math
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,7 +17,7 @@ import numpy as np
 from scipy.interpolate import BPoly
 
 from flatfree._validate import positive
-from flatfree._warn import warn
+from flatfree._warn import recording, warn
 from flatfree.tracks import _io
 from flatfree.tracks.geometry import DEFAULT_DS, DEFAULT_SMOOTHING_LENGTH, Track, _as_1d
 
@@ -339,8 +338,7 @@ def _bundled_track(name: str, raceline: bool, closed, ds, smoothing_length):
     immutable (frozen, its geometry a read-only view that cannot be made writeable), so every
     caller may share it. Building one (reading, smoothing, the spline, the resampling) is most
     of a process's first ``prepare`` (benchmarks/profile_closed_loop.py part 4 prints both)."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with recording() as caught:
         # the bundled file of that name, not a file of the current folder spelled like it
         pts = _points_of(*_io.bundled_file(name, "raceline" if raceline else "track"),
                          bundled=True)

@@ -184,7 +184,8 @@ class SpeedLimits:
         Largest lateral jerk of steady travel along the path, v^3 |d kappa/ds| at the nodes
         [m/s^3] (module docstring, "Lateral-jerk limit"). Default ``inf``: off, the
         friction-ellipse profile bit for bit. :data:`J_LAT_HANDLING` (15 m/s^3) keeps a rough
-        path drivable and costs a bundled track's lap 0.31 s at most (Spa, 0.12 %).
+        path drivable at a small cost in lap time (module docstring: its cost on the bundled
+        tracks).
     """
 
     a_lat_max: float = field(default=6.0, metadata={"unit": "m/s^2"})
