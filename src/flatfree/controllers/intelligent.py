@@ -192,6 +192,7 @@ class IPAR(enum.IntEnum):
     L = 11  # buffer length, samples
     MOM = 12  # 1: the sums by sliding moments (weights polynomial in the lag), 0: plain sums
     REFRESH = 13  # samples between exact recomputations of the moments
+    CORR_MAX = 14  # bound on the feedback correction |kp e + kd e'|, y-unit/s^nu (inf: none)
 
 
 _HP = len(IPAR)
@@ -236,10 +237,10 @@ assert _ND == 5  # _slide_moments is written out for degree 4
 
 # plain ints for the compiled code (numba folds module-level ints into constants)
 _NU, _ALPHA, _KP, _KI, _KD, _DT = 0, 1, 2, 3, 4, 5
-_UMIN, _UMAX, _RATE, _U0, _AW, _L, _MOM, _REFRESH = 6, 7, 8, 9, 10, 11, 12, 13
+_UMIN, _UMAX, _RATE, _U0, _AW, _L, _MOM, _REFRESH, _CMAX = 6, 7, 8, 9, 10, 11, 12, 13, 14
 _K, _HEAD, _NNF, _NF, _U, _INT, _FH, _E, _ED, _YD, _SAT, _RL, _YL = range(13)
 _MVALID, _MSINCE, _MY, _MU = 13, 14, 15, 20
-assert [m.value for m in IPAR] == list(range(14)) and _HP == 14
+assert [m.value for m in IPAR] == list(range(15)) and _HP == 15
 assert [m.value for m in IST] == [*range(13), 13, 14, 15, 20] and _HS == 25
 # offsets inside the moment block: shift matrix, x_0^m, x_L^m (y), x_(L-1)^m (u), coefficients
 _MB_B, _MB_ADD, _MB_DY, _MB_DU = 0, _ND * _ND, _ND * _ND + _ND, _ND * _ND + 2 * _ND
@@ -419,11 +420,22 @@ def _law(p, s, f_hat, e, e_dot, y_ref_dot, y_ref_ddot, u_prev, de_int):
     the limited output (the caller stores it)."""
     alpha = p[_ALPHA]
     s[_E] = e
+    cmax = p[_CMAX]
     if int(p[_NU]) == 1:
         v0 = f_hat - y_ref_dot + p[_KP] * e  # paper eq. (ip), NOTES.md sign
+        corr = p[_KP] * e
+        ff = f_hat - y_ref_dot
     else:
         s[_ED] = e_dot
         v0 = f_hat - y_ref_ddot + p[_KP] * e + p[_KD] * e_dot  # paper eq. (iPD_c), NOTES.md
+        corr = p[_KP] * e + p[_KD] * e_dot
+        ff = f_hat - y_ref_ddot
+    # the feedback correction bounded (IntelligentParams.correction_max); within the bound
+    # the paper's expression as written above, bit for bit
+    if corr > cmax:
+        v0 = ff + cmax
+    elif corr < -cmax:
+        v0 = ff - cmax
     ki = p[_KI]
     i_old = s[_INT]
     i_new = i_old + de_int  # rectangle rule, includes e_k
@@ -774,6 +786,12 @@ class IntelligentParams:
         Output held before the estimator's window is full, u-unit.
     anti_windup : str
         ``"clamp"`` (conditional integration, default) or ``"none"``.
+    correction_max : float
+        Bound on the law's feedback correction ``|kp e + kd e'|`` (``|kp e|`` for nu = 1), in
+        y-unit/s^nu, > 0 (default inf: none, the paper's law). The law then asks at most this
+        much of ``y^(nu)`` beyond ``-F + y_ref^(nu)``: a large error is closed at a bounded
+        rate instead of a command the actuators' rate limit cannot follow (the integral term
+        is not bounded by it). Beyond the paper.
 
     References
     ----------
@@ -795,6 +813,7 @@ class IntelligentParams:
     rate_max: float = math.inf
     u0: float = 0.0
     anti_windup: str = "clamp"
+    correction_max: float = math.inf
 
     def __post_init__(self) -> None:
         one_of("nu", self.nu, (1, 2))  # the ultra-local model's order (True is not one)
@@ -834,6 +853,7 @@ class IntelligentParams:
             )
         positive_or_inf("rate_max", self.rate_max, "u-unit/s")
         finite("u0", self.u0, "u-unit")
+        positive_or_inf("correction_max", self.correction_max, "y-unit/s^nu")
 
     @property
     def buffer_length(self) -> int:
@@ -858,6 +878,7 @@ class IntelligentParams:
         p[_U0] = self.u0
         p[_AW] = ANTI_WINDUP_CODES[self.anti_windup]
         p[_L] = L
+        p[_CMAX] = self.correction_max
         if self.estimator == "algebraic":
             wy, wu = f_estimator_weights(self.nu, n, self.dt)  # NOTES.md algebraic estimators
         else:

@@ -85,7 +85,15 @@ from typing import Any, ClassVar, Self
 import numpy as np
 from numba import njit
 
-from flatfree._validate import as_real, boolean, finite, positive, real, whole
+from flatfree._validate import (
+    as_real,
+    boolean,
+    finite,
+    positive,
+    positive_or_inf,
+    real,
+    whole,
+)
 from flatfree._warn import warn
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers._shell import independent_copy, nonfinite_command
@@ -420,6 +428,18 @@ class MfcNaturalSettings(_SampleCountSettings):
         hairpin exit (49-54 s); with 1.5, 60 of 60 completed, max 1.34-2.65 cm (2: 1.41-2.59);
         Spa 20/30 vs 18/30, Catalunya 27/30 both (benchmarks/README.md "Closed loop"; measured
         with ``window_lon`` 50).
+    correction_max : float
+        Bound [m/s^2] on the iPD's feedback correction ``|kp e + kd e'|`` (the e_y'' it asks
+        for beyond ``-F + e_y_ref''``; :class:`~flatfree.controllers.intelligent.IntelligentParams`
+        ``correction_max``). Default inf: none, the paper's law. The default gains are tuned
+        for a car that starts on its path and stays within centimetres of it: started 0.3 m
+        off a straight path (10 m/s, noise-free) the car leaves it, and at 20 m/s 5 cm
+        suffice, the steer swinging through its rate limit. With 2 (or 2.5) it comes back
+        from 1 m at 5 to 40 m/s (``benchmarks/initial_offset.py``); on the tracks it costs
+        accuracy where the loop needs more (Spa, Catalunya; benchmarks/README.md "Starting
+        off the path"). Beyond the paper. To start off the path without it, give the
+        controller a reference that starts at the car and merges into the path
+        (``e_y_ref`` and its derivatives: ``NaturalOutputController.step``).
     window_lat : int
         Samples of the F estimator window (lateral loop).
     derivative_lat : str
@@ -523,6 +543,7 @@ class MfcNaturalSettings(_SampleCountSettings):
     zeta_lat: float = 1.0
     wn_lat_speed: float = 30.0
     wn_lat_ratio: float = 1.5
+    correction_max: float = math.inf
     window_lat: int = 100
     derivative_lat: str = "model"
     denoise_lon: int = 0
@@ -556,6 +577,7 @@ class MfcNaturalSettings(_SampleCountSettings):
         positive("kp_lon", self.kp_lon, "1/s")
         positive("alpha_lat", self.alpha_lat, "(m/s^2)/rad")
         positive("wn_lat", self.wn_lat, "rad/s")
+        positive_or_inf("correction_max", self.correction_max, "m/s^2")
         if finite("wn_lat_speed", self.wn_lat_speed, "m/s") < 0.0:
             raise ValueError(f"wn_lat_speed = {self.wn_lat_speed!r} m/s: must be >= 0 "
                              "(0: no schedule)")
@@ -845,7 +867,8 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
         lat = IntelligentParams(nu=2, alpha=s.alpha_lat, dt=dt, window=s.window_lat,
                                 kp=s.wn_lat**2, kd=2.0 * s.zeta_lat * s.wn_lat,
                                 derivative=s.derivative_lat,
-                                derivative_window=s.window_lat, **steer_lim)
+                                derivative_window=s.window_lat,
+                                correction_max=s.correction_max, **steer_lim)
         kind = KIND.MFC_NATURAL
         # the imu estimator's observer, discrete (predict with e_y'', correct with e_y): the
         # gains of the poles -observer_wn (double) and -observer_bias_wn (the bias state), to
@@ -1151,7 +1174,12 @@ class NaturalOutputController:
         (counter-clockwise seen from above). The torque is the sum at the wheels, > 0
         driving, < 0 braking. The lateral loop assumes a moving car: at a standstill the steer
         does not move ``e_y`` and the iPD winds the steer up; :meth:`reset` at the actuators'
-        positions when the car pulls away (or do not call ``step`` while it stands).
+        positions when the car pulls away (or do not call ``step`` while it stands). It also
+        assumes a car near its reference: with the default settings a car 0.3 m off it (at
+        10 m/s; 5 cm at 20 m/s) swings its steer through the rate limit and leaves the path.
+        Start the reference at the car and merge it into the path (``e_y_ref`` and its
+        derivatives, over ~3 s), or bound the correction
+        (:attr:`MfcNaturalSettings.correction_max`; ``benchmarks/initial_offset.py``).
 
         Parameters
         ----------

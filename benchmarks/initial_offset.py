@@ -1,0 +1,100 @@
+"""Starting off the path: how far from its path the natural-output controller comes back from.
+
+The closed-loop engine starts every run on its reference; a car in a user's loop may not (a
+start beside the line, a re-engagement after a fault). Here the peugeot406 (10DoF, noise-free)
+drives a straight path, the x axis, at a constant speed reference, starting ``e0`` to its
+left with the path's heading, through ``NaturalOutputController`` in a Python loop (as
+examples/own_loop.py). For each speed and offset: the largest tracking error |e_y - e_y_ref|
+after the first second and |e_y| at the end (6 s) [m], for
+
+- the default settings (the paper's law);
+- ``correction_max`` = 2, 2.5, 3 m/s^2 (the iPD's feedback correction bounded);
+- the default settings with a reference that starts at the car and merges into the path in
+  ``T`` = 3 s (a quintic in time: e_y_ref = e0 phi(t), phi from 1 to 0 with zero slope and
+  curvature at both ends).
+
+Run as a script (about a minute)::
+
+    python benchmarks/initial_offset.py
+
+Nothing here is a test; the figures are in benchmarks/README.md, "Starting off the path".
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+import time
+
+import numpy as np
+
+import flatfree as ff
+from flatfree.actuators import actuate_step, actuator_state
+from flatfree.models.tendof import TenDoF
+
+SPEEDS = (5.0, 10.0, 20.0, 40.0)  # [m/s]
+OFFSETS = (0.05, 0.1, 0.3, 1.0)  # [m]
+SECONDS = 6.0
+MERGE_S = 3.0
+
+
+def merge(t: float, length: float) -> tuple[float, float, float]:
+    """phi(t), phi'(t), phi''(t): 1 at t = 0 to 0 at t = ``length`` [s], a quintic with zero
+    slope and curvature at both ends; 0 after."""
+    if t >= length:
+        return 0.0, 0.0, 0.0
+    x = t / length
+    phi = 1.0 - x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+    dphi = -30.0 * x * x * (1.0 - x) ** 2 / length
+    ddphi = -60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / length**2
+    return phi, dphi, ddphi
+
+
+def run(settings: ff.MfcNaturalSettings, v0: float, e0: float,
+        merge_s: float | None = None) -> tuple[float, float]:
+    """(max |e_y - e_y_ref| after 1 s, |e_y| at the end) [m] of one start ``e0`` [m] left of the
+    x axis at ``v0`` [m/s]."""
+    car = ff.load_vehicle("peugeot406")
+    plant = TenDoF(car)
+    dt = 0.001
+    x = plant.initial_state(v0, x=0.0, y=e0, psi=0.0)
+    act = ff.ActuatorParams.from_vehicle(car)
+    ctrl = ff.NaturalOutputController(dt=dt, actuators=act, settings=settings)
+    ctrl.reset()
+    act_p, act_s = act.to_array(dt), actuator_state(act, dt)
+    u = np.array([0.0, 0.0, 1.0, 1.0, 1.0, 1.0])
+    worst = 0.0
+    for k in range(round(SECONDS / dt)):
+        phi = (0.0, 0.0, 0.0) if merge_s is None else merge(k * dt, merge_s)
+        torque, steer = ctrl.step(vx=float(x[3]), r=float(x[5]), e_y=float(x[1]), kappa=0.0,
+                                  vx_ref=v0, e_y_ref=e0 * phi[0], e_y_ref_dot=e0 * phi[1],
+                                  e_y_ref_ddot=e0 * phi[2])
+        u[0], u[1] = actuate_step(torque, steer, x[3], act_p, act_s)
+        x = plant.step(x, u, dt)
+        if not math.isfinite(x[1]):
+            return math.inf, math.inf
+        if k * dt >= 1.0:
+            worst = max(worst, abs(float(x[1]) - e0 * phi[0]))
+    return worst, abs(float(x[1]))
+
+
+def main() -> None:
+    print(f"machine: {platform.machine()}, python {platform.python_version()}, "
+          f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    print(f"peugeot406, 10DoF, noise-free, a straight path; max |e_y - e_y_ref| after 1 s / "
+          f"|e_y| at "
+          f"{SECONDS:g} s [m] for the offsets {', '.join(f'{e:g}' for e in OFFSETS)} m")
+    variants = [("default (the paper's law)", ff.MfcNaturalSettings(), None)]
+    variants += [(f"correction_max = {c:g}", ff.MfcNaturalSettings(correction_max=c), None)
+                 for c in (2.0, 2.5, 3.0)]
+    variants += [(f"default, merging in {MERGE_S:g} s", ff.MfcNaturalSettings(), MERGE_S)]
+    for label, settings, merge_s in variants:
+        print(label)
+        for v0 in SPEEDS:
+            cells = [run(settings, v0, e0, merge_s) for e0 in OFFSETS]
+            print(f"  {v0:4.0f} m/s  " + "  ".join(f"{a:7.3f} / {b:6.3f}" for a, b in cells),
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
