@@ -212,13 +212,9 @@ def test_own_loop_example_runs_and_tracks():
     estimators hold the first 3 s of Norisring (measured: 1.03 cm algebraic, 0.029 cm imu). The
     imu bound, 0.1 cm, is 3.4x its measured figure (it was 0.5 cm, 17x); the algebraic one is
     the issue's 2 cm."""
-    import importlib.util
-    from pathlib import Path
+    from conftest import load_script
 
-    path = Path(__file__).resolve().parents[1] / "examples" / "own_loop.py"
-    spec = importlib.util.spec_from_file_location("own_loop", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("examples/own_loop.py")
     alg = mod.run(MfcNaturalSettings(), 3.0)
     imu = mod.run(_imu(), 3.0)
     assert alg["max_lateral_m"] < 0.02 and imu["max_lateral_m"] < 0.001

@@ -3,22 +3,17 @@ MfcNaturalSettings.correction_max (benchmarks/initial_offset.py, whose loop thes
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import pytest
+from conftest import load_script
 
 from flatfree import MfcNaturalSettings
 
 
 @pytest.fixture(scope="module")
 def offset_bench():
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "initial_offset.py"
-    spec = importlib.util.spec_from_file_location("initial_offset", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("benchmarks/initial_offset.py")
 
 
 def test_a_start_off_the_path_is_recovered_with_a_bounded_correction(offset_bench):
@@ -44,3 +39,23 @@ def test_a_merging_reference_needs_no_bound(offset_bench):
     assert phi[2] == (0.0, 0.0, 0.0) and math.isclose(phi[1][1], -15.0 / 8.0 / 3.0)
     worst, end = offset_bench.run(MfcNaturalSettings(), 20.0, 0.3, merge_s=3.0)
     assert worst < 0.01 and end < 0.01
+
+
+def test_correction_max_is_a_positive_bound_in_m_per_s2():
+    """MfcNaturalSettings.correction_max: > 0 or inf (the default: the paper's law), carried
+    into the lateral iPD's parameters; refused otherwise, naming the field and the unit."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.intelligent import IPAR
+    from flatfree.controllers.vehicle import build_mfc
+    from flatfree.vehicles import load_vehicle
+
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    for value in (math.inf, 2.5):
+        arrays = build_mfc("mfc-natural", MfcNaturalSettings(correction_max=value), dt=1e-3,
+                           actuators=act)
+        assert arrays.p_lat[IPAR.CORR_MAX] == value
+        assert arrays.p_lon[IPAR.CORR_MAX] == math.inf  # the speed loop is not bounded
+    for bad in (0.0, -1.0, math.nan, "2"):
+        with pytest.raises(ValueError, match=r"^correction_max = .* m/s\^2: "
+                                             r"(must be|expected a real number) > 0"):
+            MfcNaturalSettings(correction_max=bad)

@@ -819,6 +819,60 @@ def test_yaw_error_reference_is_the_path_following_3dof_and_the_run_starts_on_it
     assert abs(tr["yaw_error"][0]) < 1e-12 and abs(tr["course_error"][0]) < 1e-12
 
 
+def test_a_recording_starts_with_its_recorded_yaw_and_its_sideslip():
+    """For a recording the reference sideslip is the path's course minus the recorded yaw
+    (wrapped), and the car starts on it: heading = the recorded yaw, vy = vx tan(beta_0); zero
+    yaw and course error at t = 0 (recorded-noise-free; beta_0 measured -0.62 deg)."""
+    from flatfree.metrics import wrap_angle
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare
+
+    sc = named_scenario("recorded-noise-free", duration_s=0.05)
+    prep = prepare(sc)
+    ref = prep.reference
+    np.testing.assert_array_equal(prep.beta_ref,
+                                  wrap_angle(ref["psi"] - ref.extras["psi_recorded"]))
+    assert np.radians(0.5) < abs(prep.beta_ref[0]) < np.radians(1.0)
+    assert abs(prep.x0[2] - ref.extras["psi_recorded"][0]) < 1e-12
+    assert prep.x0[4] == pytest.approx(prep.x0[3] * math.tan(prep.beta_ref[0]), rel=1e-15)
+    tr = simulate(sc.with_(timing=Timing(duration_s=0.05, log_dt_s=0.001)))
+    assert abs(tr["yaw_error"][0]) < 1e-12 and abs(tr["course_error"][0]) < 1e-12
+
+
+@pytest.mark.parametrize("offset, outcome", [(0.0, "quiet"), (0.3, "warns"), (1.4, "refused"),
+                                             (math.pi / 2, "refused")])
+def test_a_recorded_yaw_far_from_the_course_is_warned_about_or_refused(tmp_path, offset,
+                                                                      outcome):
+    """A recording's phi is the car's yaw, rad, counter-clockwise from +x: one that differs
+    from the course of its positions by 5 deg or more is warned about (a sideslip the run takes
+    and starts with), by 30 deg or more refused (another convention: pi/2, a heading from north,
+    made the start's vy infinite and the run end at t = 0 as completed, every metric NaN). A
+    straight line at 15 m/s with a constant phi."""
+    from flatfree.simulation import prepare
+
+    t = np.arange(0.0, 10.0, 0.04)
+    rows = "\n".join(f"{ti:g},{15.0 * ti:g},0,15,0,{offset!r},0" for ti in t)
+    path = tmp_path / "line.csv"
+    path.write_text("time,x,y,vx,vy,phi,delta\n" + rows + "\n")
+    sc = Scenario(vehicle="dallara_av21", controller="mfc-natural",
+                  controller_settings={"alpha_lat": 60.0}, noise=False,
+                  reference=ReferenceSpec(track=None, recording=str(path)))
+    if outcome == "refused":
+        with pytest.raises(ValueError, match=r"line\.csv: its yaw phi differs from the course "
+                                             r"of its positions by -\d+\.\d deg at t = 0\.00 s: "
+                                             r"phi must be the car's yaw in rad"):
+            prepare(sc)
+        return
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        prep = prepare(sc)
+    said = [str(w.message) for w in got if "yaw phi" in str(w.message)]
+    if outcome == "quiet":
+        assert not said and np.max(np.abs(prep.beta_ref)) < 1e-9
+    else:
+        assert len(said) == 1 and "by -17.2 deg" in said[0], said
+        assert prep.beta_ref[0] == pytest.approx(-0.3, abs=1e-9)
+
 def test_simulate_takes_a_named_scenarios_name_and_refuses_anything_else():
     """``simulate("paper")`` used to fail with AttributeError: a name is the named scenario
     with its defaults (flatfree.scenarios.named_scenario); anything else is a ValueError that

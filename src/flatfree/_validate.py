@@ -8,7 +8,7 @@ import numpy as np
 
 __all__ = [
     "as_real", "real", "real_array", "finite", "positive", "positive_or_inf", "nonnegative",
-    "in_range", "whole", "one_of",
+    "in_range", "whole", "one_of", "boolean", "whole_steps",
 ]
 
 

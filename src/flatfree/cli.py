@@ -312,7 +312,8 @@ seed = 0                    # seed of the sensor noise
 #              wn_lat_speed, wn_lat_ratio (speed schedule), yaw_damping,
 #              estimator_lat = "imu" (lateral F from the accelerometers; the
 #              paper-imu scenario adds yaw_damping = 0.2, denoise_yaw = 20),
-#              imu_filter_s, observer_wn, observer_bias_wn
+#              imu_filter_s, observer_wn, observer_bias_wn,
+#              correction_max (m/s^2; e.g. 2.0 to start off the path)
 #              (dallara_av21: alpha_lat = 60.0)
 
 [reference]

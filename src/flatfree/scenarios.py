@@ -293,10 +293,11 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         --vehicle`` does; a car they were not tuned on (:data:`TUNED_VEHICLES`: a file
         too, whatever it holds) runs the peugeot406's, and its runs warn
         (:func:`warn_if_untuned`). (``scenario.with_(vehicle=...)`` changes the car and
-        keeps every other setting, the tuning included: a run whose alpha_lat is then
-        another car's warns too, naming the car's tuned value.) An error for the recorded scenarios,
-        whose car is the recording's, and for a name that is not bundled (``ValueError`` here;
-        a path is read at the run).
+        keeps every other setting, the tuning included: a run that then leaves alpha_lat at
+        its default on another car than the peugeot406 warns too, naming the car's tuned
+        value; an alpha_lat set for one car and kept on another is not checked.) An error
+        for the recorded scenarios, whose car is the recording's, and for a name that is not
+        bundled (``ValueError`` here; a path is read at the run).
 
     Returns
     -------

@@ -670,6 +670,33 @@ def _warn_if_rough(ref: Reference, sc: Scenario) -> None:
          "with reference.j_lat_max = 15 (--set reference.j_lat_max=15) caps it", UserWarning)
 
 
+#: Largest |course - yaw| [rad] of a recording taken as the car's sideslip (30 deg): beyond it
+#: the recorded yaw is refused (another convention: degrees, clockwise, from north); beyond
+#: :data:`_RECORDED_BETA_WARN` (5 deg, more than a race car's sideslip at the limit) a warning.
+_RECORDED_BETA_MAX = math.radians(30.0)
+_RECORDED_BETA_WARN = math.radians(5.0)
+
+
+def _recorded_sideslip(ref: Reference, name) -> np.ndarray:
+    """The sideslip of a recorded reference [rad]: its path's course minus its recorded yaw,
+    wrapped; a ``ValueError`` when it reaches :data:`_RECORDED_BETA_MAX` (the yaw is not the
+    car's yaw as flatfree takes it), a warning beyond :data:`_RECORDED_BETA_WARN`."""
+    beta = wrap_angle(ref["psi"] - ref.extras["psi_recorded"])
+    i = int(np.nanargmax(np.abs(beta))) if np.isfinite(beta).any() else 0
+    worst = abs(float(beta[i]))
+    if worst >= _RECORDED_BETA_WARN:
+        what = (f"recording {name}: its yaw phi differs from the course of its positions by "
+                f"{math.degrees(float(beta[i])):.1f} deg at t = {float(ref['t'][i]):.2f} s")
+        if worst >= _RECORDED_BETA_MAX:
+            raise ValueError(f"{what}: phi must be the car's yaw in rad, counter-clockwise from "
+                             f"+x (a sideslip beyond {math.degrees(_RECORDED_BETA_MAX):g} deg "
+                             "is taken for another convention)")
+        warn(f"{what}, the sideslip the run takes as its reference there (and starts with at "
+             f"t = 0: {math.degrees(float(beta[0])):.1f} deg); phi is the car's yaw in rad, "
+             "counter-clockwise from +x")
+    return beta
+
+
 def _warn_if_flat_output_singular(ref: Reference, model: Bicycle3DoFParams,
                                   controller: str, vehicle: VehicleParams) -> None:
     """Warn when a flat-output design's reference passes the speed where the steer loses its
@@ -783,9 +810,9 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     # benchmarks/README.md "The yaw error's reference: the 3DoF model on the path")
     if recorded:
         # the recorded yaw is the reference yaw: the gap to the path's course (the smoothed
-        # positions' tangent; 0.61 deg at the LVMS recording's start) is the sideslip the car
-        # starts with and the yaw error's reference
-        beta = wrap_angle(ref["psi"] - ref.extras["psi_recorded"])
+        # positions' tangent; -0.62 deg at the LVMS recording's start, 0.62 at most) is the
+        # sideslip the car starts with and the yaw error's reference
+        beta = _recorded_sideslip(ref, sc.reference.recording)
     else:
         lat_p = reference_states_3dof(ref, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
                                       lf=bic.lf, lr=bic.lr, method="path")

@@ -19,7 +19,9 @@ error ``e = y - y_ref`` (NOTES.md "Intelligent controllers": the sign the paper 
 
 and with a perfect estimate the closed-loop error obeys ``e' + Kp e (+ Ki int e) = 0`` (nu = 1)
 or ``e'' + Kd e' + Kp e (+ Ki int e) = 0`` (nu = 2), whatever the plant: see
-:func:`error_dynamics_gains`.
+:func:`error_dynamics_gains`. Beyond the paper, ``IntelligentParams.correction_max`` bounds the
+feedback correction ``Kp e (+ Kd e')`` (not the integral, not ``F_hat - y_ref^(nu)``), so that a
+large error is closed at a bounded rate (default: no bound).
 
 Two doors, one implementation (DESIGN.md "Speed by design"):
 

@@ -432,10 +432,10 @@ class MfcNaturalSettings(_SampleCountSettings):
         Bound [m/s^2] on the iPD's feedback correction ``|kp e + kd e'|`` (the e_y'' it asks
         for beyond ``-F + e_y_ref''``; :class:`~flatfree.controllers.intelligent.IntelligentParams`
         ``correction_max``). Default inf: none, the paper's law. The default gains are tuned
-        for a car that starts on its path and stays within centimetres of it: started 0.3 m
-        off a straight path (10 m/s, noise-free) the car leaves it, and at 20 m/s 5 cm
-        suffice, the steer swinging through its rate limit. With 2 (or 2.5) it comes back
-        from 1 m at 5 to 40 m/s (``benchmarks/initial_offset.py``); on the tracks it costs
+        for a car that starts on its path and stays within centimetres of it: started 0.1 m
+        off a straight path (10 or 40 m/s, noise-free) the car leaves it, at 20 m/s 5 cm
+        suffice. With 2 (or 2.5) it comes back from 1 m at 5 to 40 m/s, in up to ~10 s
+        (``benchmarks/initial_offset.py``); on the tracks it costs
         accuracy where the loop needs more (Spa, Catalunya; benchmarks/README.md "Starting
         off the path"). Beyond the paper. To start off the path without it, give the
         controller a reference that starts at the car and merges into the path
@@ -1175,8 +1175,8 @@ class NaturalOutputController:
         driving, < 0 braking. The lateral loop assumes a moving car: at a standstill the steer
         does not move ``e_y`` and the iPD winds the steer up; :meth:`reset` at the actuators'
         positions when the car pulls away (or do not call ``step`` while it stands). It also
-        assumes a car near its reference: with the default settings a car 0.3 m off it (at
-        10 m/s; 5 cm at 20 m/s) swings its steer through the rate limit and leaves the path.
+        assumes a car near its reference: with the default settings a car 0.1 m off it (at
+        10 or 40 m/s; 5 cm at 20 m/s, 0.3 m at 5 m/s) leaves the path.
         Start the reference at the car and merge it into the path (``e_y_ref`` and its
         derivatives, over ~3 s), or bound the correction
         (:attr:`MfcNaturalSettings.correction_max`; ``benchmarks/initial_offset.py``).
