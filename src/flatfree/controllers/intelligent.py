@@ -422,22 +422,23 @@ def _law(p, s, f_hat, e, e_dot, y_ref_dot, y_ref_ddot, u_prev, de_int):
     the limited output (the caller stores it)."""
     alpha = p[_ALPHA]
     s[_E] = e
-    cmax = p[_CMAX]
-    if int(p[_NU]) == 1:
-        v0 = f_hat - y_ref_dot + p[_KP] * e  # paper eq. (ip), NOTES.md sign
-        corr = p[_KP] * e
+    nu1 = int(p[_NU]) == 1
+    if nu1:
         ff = f_hat - y_ref_dot
+        v0 = ff + p[_KP] * e  # paper eq. (ip), NOTES.md sign
     else:
         s[_ED] = e_dot
-        v0 = f_hat - y_ref_ddot + p[_KP] * e + p[_KD] * e_dot  # paper eq. (iPD_c), NOTES.md
-        corr = p[_KP] * e + p[_KD] * e_dot
         ff = f_hat - y_ref_ddot
-    # the feedback correction bounded (IntelligentParams.correction_max); within the bound
-    # the paper's expression as written above, bit for bit
-    if corr > cmax:
-        v0 = ff + cmax
-    elif corr < -cmax:
-        v0 = ff - cmax
+        v0 = ff + p[_KP] * e + p[_KD] * e_dot  # paper eq. (iPD_c), NOTES.md
+    cmax = p[_CMAX]
+    if cmax < math.inf:
+        # the feedback correction bounded (IntelligentParams.correction_max); within the bound
+        # v0 as above, bit for bit. Tested only when set: the default pays nothing per step
+        corr = p[_KP] * e if nu1 else p[_KP] * e + p[_KD] * e_dot
+        if corr > cmax:
+            v0 = ff + cmax
+        elif corr < -cmax:
+            v0 = ff - cmax
     ki = p[_KI]
     i_old = s[_INT]
     i_new = i_old + de_int  # rectangle rule, includes e_k
