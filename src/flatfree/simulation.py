@@ -652,19 +652,27 @@ def _warn_if_beyond_steer_lock(ref: Reference, vehicle: VehicleParams) -> None:
 ROUGH_JERK = 25.0
 
 
+def _steady_jerk_peak(ref: Reference) -> tuple[float, int] | None:
+    """The largest steady lateral jerk v^3 |dkappa/ds| [m/s^3] a reference asks and its row
+    (None if none is finite): what :func:`_warn_if_rough` compares with :data:`ROUGH_JERK`."""
+    jerk = np.abs(np.asarray(ref["vx"]) ** 3 * np.asarray(ref["dkappa_ds"]))
+    if not np.isfinite(jerk).any():
+        return None
+    i = int(np.nanargmax(jerk))
+    return float(jerk[i]), i
+
+
 def _warn_if_rough(ref: Reference, sc: Scenario) -> None:
     """Warn when a track reference asks the natural-output controller for more steady lateral
     jerk than :data:`ROUGH_JERK` (a rough path: a kink in the data, or a light smoothing)."""
     if sc.reference.recording is not None or sc.controller != "mfc-natural":
         return
-    jerk = np.abs(np.asarray(ref["vx"]) ** 3 * np.asarray(ref["dkappa_ds"]))
-    if not np.isfinite(jerk).any():
+    peak = _steady_jerk_peak(ref)
+    if peak is None or peak[0] <= ROUGH_JERK:
         return
-    i = int(np.nanargmax(jerk))
-    if jerk[i] <= ROUGH_JERK:
-        return
+    jerk, i = peak
     warn(f"the path may be too rough for the natural-output controller: its reference asks "
-         f"for a steady lateral jerk v^3 |dkappa/ds| of {jerk[i]:.1f} m/s^3 at s = "
+         f"for a steady lateral jerk v^3 |dkappa/ds| of {jerk:.1f} m/s^3 at s = "
          f"{float(ref['s'][i]):.0f} m ({float(ref['vx'][i]):.1f} m/s), above {ROUGH_JERK:g} "
          "m/s^3, and the car left the track on every such reference tested; a speed profile "
          "with reference.j_lat_max = 15 (--set reference.j_lat_max=15) caps it", UserWarning)

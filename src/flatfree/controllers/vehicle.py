@@ -262,17 +262,13 @@ def warn_if_untuned_period(controller: str, settings, dt: float) -> None:
     (benchmarks/README.md "Control period"). Counts a user chose are the user's (a chosen
     count that equals the default is taken as left at it); the denoisers are not checked
     (their tuned lengths differ between the named scenarios: ``denoise_yaw`` 50 or 20)."""
-    if abs(dt - TUNED_PERIOD_S) <= 1e-9 * TUNED_PERIOD_S:
+    ratio = dt / TUNED_PERIOD_S  # a window left at its count spans ratio x its tuned time
+    if 1.0 / _PERIOD_WARN_RATIO <= ratio <= _PERIOD_WARN_RATIO:
         return
     tuned = type(settings)()
-    off = []
-    for k in ("window_lon", "window_lat"):
-        n = getattr(settings, k)
-        if n != getattr(tuned, k):
-            continue
-        span, tuned_span = n * dt, n * TUNED_PERIOD_S
-        if not 1.0 / _PERIOD_WARN_RATIO <= span / tuned_span <= _PERIOD_WARN_RATIO:
-            off.append(f"{k} = {n} samples spans {span:g} s (tuned: {tuned_span:g} s)")
+    off = [f"{k} = {n} samples spans {n * dt:g} s (tuned: {n * TUNED_PERIOD_S:g} s)"
+           for k in ("window_lon", "window_lat")
+           if (n := getattr(settings, k)) == getattr(tuned, k)]
     if off:
         warn(f"{controller} at a control period of {dt:g} s: its sample counts were tuned at "
              f"{TUNED_PERIOD_S:g} s; {'; '.join(off)}. It is not the tuned controller and may "
@@ -357,6 +353,8 @@ class _SampleCountSettings:
     """Settings whose estimator windows and denoisers are counts of control samples."""
 
     __slots__ = ()
+    # the smallest estimator window [samples] (the nu = 1 fit; a subclass may ask more)
+    _LEAST_WINDOW: ClassVar[int] = 2
 
     def for_period(self, dt: float, *, from_dt: float = TUNED_PERIOD_S) -> Self:
         """These settings at control period ``dt`` [s]: every window and denoiser keeps its
@@ -434,7 +432,7 @@ class MfcNaturalSettings(_SampleCountSettings):
         ``correction_max``). Default inf: none, the paper's law. The default gains are tuned
         for a car that starts on its path and stays within centimetres of it: started 0.1 m
         off a straight path (10 or 40 m/s, noise-free) the car leaves it, at 20 m/s 5 cm
-        suffice. With 2 (or 2.5) it comes back from 1 m at 5 to 40 m/s, in up to ~10 s
+        suffice. With 2 (or 2.5) it comes back from 1 m at 5 to 40 m/s, within 1 cm in 4-9 s
         (``benchmarks/initial_offset.py``); on the tracks it costs
         accuracy where the loop needs more (Spa, Catalunya; benchmarks/README.md "Starting
         off the path"). Beyond the paper. To start off the path without it, give the
@@ -657,9 +655,6 @@ class MfcFlatSettings(_SampleCountSettings):
     outer_zeta: float = OUTER_ZETA
     sideslip_feedforward: bool = True
     outer_integral: bool = True
-
-    # the smallest estimator window (the iPI's nu = 1 fit) [samples]
-    _LEAST_WINDOW: ClassVar[int] = 2
 
     def __post_init__(self) -> None:
         _check_schedule(self.schedule)

@@ -136,14 +136,20 @@ def resolve(name_or_path: str | Path, kind: str) -> tuple[Any, str]:
     returns ``(None, "LVMS")`` (built from the bound files by the caller). Race lines are bundled
     only: for a ``"raceline"``, a file or a path is an error.
     """
+    return resolve_named(name_or_path, kind)[:2]
+
+
+def resolve_named(name_or_path: str | Path, kind: str) -> tuple[Any, str, str | None]:
+    """:func:`resolve`'s ``(file, display_name)`` and the bundled name it resolved (its own
+    spelling; None for a file): the one place of the rule "a file first, then a name"."""
     p = Path(name_or_path)
     if p.is_file():
         if kind == "raceline":
             raise _not_bundled(name_or_path)
-        return p, str(p)
+        return p, str(p), None
     name = bundled_name(name_or_path, kind)
     if name is not None:
-        return bundled_file(name, kind)
+        return (*bundled_file(name, kind), name)
     key = str(name_or_path).strip()
     if looks_like_path(key):
         if kind == "raceline":

@@ -243,8 +243,8 @@ def read_track_points(name_or_path: str | Path, *, raceline: bool = False) -> Tr
     ValueError
         Unknown name, missing file, or a defective file (message with file and line).
     """
-    file, display = _io.resolve(name_or_path, "raceline" if raceline else "track")
-    return _points_of(file, display, bundled=not Path(name_or_path).is_file())
+    file, display, name = _io.resolve_named(name_or_path, "raceline" if raceline else "track")
+    return _points_of(file, display, bundled=name is not None)
 
 
 def _points_of(file, display: str, bundled: bool) -> TrackPoints:
@@ -306,21 +306,20 @@ def load_track(
     The bundled centerlines derive from OpenStreetMap data: credit "(c) OpenStreetMap
     contributors" (data/tracks/PROVENANCE.md). Licenses: LGPL-3.0 (tracks), GPL-3.0 (recording).
     """
-    if not Path(name_or_path).is_file():  # a file is read as the file (module docstring)
-        name = _io.bundled_name(name_or_path, "raceline" if raceline else "track")
-        if name is not None:
-            args = (name, raceline, closed, ds, smoothing_length)
-            try:
-                hash(args)
-            except TypeError:  # an unhashable argument: the builder's to refuse, naming it
-                return _build_track(read_track_points(name_or_path, raceline=raceline),
-                                    *args[1:])
-            track, said = _bundled_track(*args)
-            for message, category in said:  # what its build said, said on every call
-                warn(message, category)
-            return track
-    return _build_track(read_track_points(name_or_path, raceline=raceline), raceline, closed,
-                        ds, smoothing_length)
+    # a file is read as the file, a bundled name is built once (module docstring)
+    file, display, name = _io.resolve_named(name_or_path, "raceline" if raceline else "track")
+    if name is not None:
+        args = (name, raceline, closed, ds, smoothing_length)
+        try:
+            hash(args)
+        except TypeError:  # an unhashable argument: the builder's to refuse, naming it
+            return _build_track(_points_of(file, display, bundled=True), *args[1:])
+        track, said = _bundled_track(*args)
+        for message, category in said:  # what its build said, said on every call
+            warn(message, category)
+        return track
+    return _build_track(_points_of(file, display, bundled=False), raceline, closed, ds,
+                        smoothing_length)
 
 
 def _build_track(pts: TrackPoints, raceline, closed, ds, smoothing_length) -> Track:
