@@ -1108,17 +1108,21 @@ def test_outside_estimates_drive_the_law_and_fall_back_when_not_finite():
 
 
 @pytest.mark.parametrize("nu", [1, 2])
-def test_correction_max_bounds_the_feedback_term_only(nu):
-    """With correction_max c the law is u = -(F - y_ref^(nu) + clip(kp e + kd e', -c, c)) /
-    alpha (kd e' for nu = 2 only): the feedforward -F + y_ref^(nu) is not bounded. A correction
-    within the bound gives the unbounded law bit for bit; the default (inf) is the paper's."""
+def test_correction_max_bounds_the_proportional_term_only(nu):
+    """With correction_max c the law is u = -(F - y_ref^(nu) + clip(kp e, -c, c) + kd e') /
+    alpha (kd e' for nu = 2 only): neither the damping term nor the feedforward -F + y_ref^(nu)
+    is bounded. A proportional term within the bound gives the unbounded law bit for bit, a
+    large kd e' included (the last case: kp e = 0.004, kd e' = 2.99); the default (inf) is the
+    paper's."""
     from flatfree.controllers.intelligent import intelligent_step_external
 
     kd = 3.0 if nu == 2 else 0.0
     f, yr, yrd, yrdd = 0.4, 0.01, 0.003, 0.2
     ff_term = f - (yrdd if nu == 2 else yrd)
-    for yh, ydh in ((0.5, 0.2), (-0.5, -0.2), (0.011, -0.02)):  # above, below, within 1.5
-        corr = 4.0 * (yh - yr) + (kd * (ydh - yrd) if nu == 2 else 0.0)
+    # kp e above, below and within 1.5; the last with kd e' beyond it
+    for yh, ydh in ((0.5, 0.2), (-0.5, -0.2), (0.011, -0.02), (0.011, 1.0)):
+        p_term = 4.0 * (yh - yr)
+        d_term = kd * (ydh - yrd) if nu == 2 else 0.0
         outs = []
         for cmax in (1.5, math.inf):
             p = IntelligentParams(nu=nu, alpha=-50.0, dt=1e-3, window=30, kp=4.0, kd=kd,
@@ -1128,12 +1132,12 @@ def test_correction_max_bounds_the_feedback_term_only(nu):
                 intelligent_step(p, s, 1e-3 * k, 0.0, 0.0, 0.0)
             outs.append(intelligent_step_external(p, s, 0.031, yr, yrd, yrdd, f, yh, ydh))
         bounded, free = outs
-        assert free == pytest.approx(-(ff_term + corr) / -50.0, rel=1e-15)
-        if abs(corr) <= 1.5:
+        assert free == pytest.approx(-(ff_term + p_term + d_term) / -50.0, rel=1e-15)
+        if abs(p_term) <= 1.5:
             assert bounded == free
         else:
-            assert bounded == pytest.approx(-(ff_term + math.copysign(1.5, corr)) / -50.0,
-                                            rel=1e-15)
+            assert bounded == pytest.approx(
+                -(ff_term + math.copysign(1.5, p_term) + d_term) / -50.0, rel=1e-15)
     with pytest.raises(ValueError, match=r"^correction_max = 0\.0 y-unit/s\^nu: must be > 0"):
         IntelligentParams(nu=2, alpha=1.0, dt=1e-3, window=30, correction_max=0.0)
 

@@ -700,9 +700,12 @@ def test_natural_output_controller_holds_limits_and_refuses_bad_input():
             for k in range(100)]
     assert held[:99] == [(100.0, 0.02)] * 99
     assert held[99][0] != 100.0 and held[99][1] != 0.02
+    # a 10 m step of lateral deviation: once the window is full the paper's law (no bound on
+    # its correction) asks for more steer than the car has; the command reaches the
+    # actuators' range and stays within it
+    c = NaturalOutputController(dt=0.001, actuators=act, settings=MfcNaturalSettings(
+        yaw_damping=0.0, correction_max=math.inf))
     c.reset(steer0=0.02, torque0=100.0)
-    # a 10 m step of lateral deviation: once the window is full the law asks for more steer
-    # than the car has; the command reaches the actuators' range and stays within it
     steers = [c.step(vx=20.0, r=0.0, e_y=10.0, kappa=0.0, vx_ref=20.0)[1] for _ in range(300)]
     assert max(abs(v) for v in steers) == act.max_steer
     with pytest.raises(ValueError, match="actuators = None"):

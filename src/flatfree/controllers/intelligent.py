@@ -20,8 +20,8 @@ error ``e = y - y_ref`` (NOTES.md "Intelligent controllers": the sign the paper 
 and with a perfect estimate the closed-loop error obeys ``e' + Kp e (+ Ki int e) = 0`` (nu = 1)
 or ``e'' + Kd e' + Kp e (+ Ki int e) = 0`` (nu = 2), whatever the plant: see
 :func:`error_dynamics_gains`. Beyond the paper, ``IntelligentParams.correction_max`` bounds the
-feedback correction ``Kp e (+ Kd e')`` (not the integral, not ``F_hat - y_ref^(nu)``), so that a
-large error is closed at a bounded rate (default: no bound).
+proportional correction ``Kp e`` (not ``Kd e'``, not the integral, not ``F_hat - y_ref^(nu)``),
+so that a large error is closed at a bounded speed (default: no bound).
 
 Two doors, one implementation (DESIGN.md "Speed by design"):
 
@@ -423,22 +423,21 @@ def _law(p, s, f_hat, e, e_dot, y_ref_dot, y_ref_ddot, u_prev, de_int):
     alpha = p[_ALPHA]
     s[_E] = e
     nu1 = int(p[_NU]) == 1
-    if nu1:
-        ff = f_hat - y_ref_dot
-        v0 = ff + p[_KP] * e  # paper eq. (ip), NOTES.md sign
-    else:
-        s[_ED] = e_dot
-        ff = f_hat - y_ref_ddot
-        v0 = ff + p[_KP] * e + p[_KD] * e_dot  # paper eq. (iPD_c), NOTES.md
+    pe = p[_KP] * e
     cmax = p[_CMAX]
     if cmax < math.inf:
-        # the feedback correction bounded (IntelligentParams.correction_max); within the bound
-        # v0 as above, bit for bit. Tested only when set: the default pays nothing per step
-        corr = p[_KP] * e if nu1 else p[_KP] * e + p[_KD] * e_dot
-        if corr > cmax:
-            v0 = ff + cmax
-        elif corr < -cmax:
-            v0 = ff - cmax
+        # the proportional correction bounded (IntelligentParams.correction_max); within the
+        # bound the law as without it, bit for bit. Tested only when set: the default pays
+        # nothing per step
+        if pe > cmax:
+            pe = cmax
+        elif pe < -cmax:
+            pe = -cmax
+    if nu1:
+        v0 = f_hat - y_ref_dot + pe  # paper eq. (ip), NOTES.md sign
+    else:
+        s[_ED] = e_dot
+        v0 = f_hat - y_ref_ddot + pe + p[_KD] * e_dot  # paper eq. (iPD_c), NOTES.md
     ki = p[_KI]
     i_old = s[_INT]
     i_new = i_old + de_int  # rectangle rule, includes e_k
@@ -790,15 +789,22 @@ class IntelligentParams:
     anti_windup : str
         ``"clamp"`` (conditional integration, default) or ``"none"``.
     correction_max : float
-        Bound on the law's feedback correction ``|kp e + kd e'|`` (``|kp e|`` for nu = 1), in
-        y-unit/s^nu, > 0 (default inf: none, the paper's law). The law then asks at most this
-        much of ``y^(nu)`` beyond ``-F + y_ref^(nu)``: a large error is closed at a bounded
-        rate instead of a command the actuators' rate limit cannot follow (the integral term
-        is not bounded by it). Beyond the paper.
+        Bound on the law's proportional correction ``|kp e|``, in y-unit/s^nu, > 0 (default
+        inf: none, the paper's law): ``kp e`` is replaced by ``clip(kp e, -c, c)``; ``kd e'``,
+        the integral and ``-F + y_ref^(nu)`` are not bounded. For nu = 1 the error then closes
+        at a speed of at most ``c``; for nu = 2 the law reads ``e'' = -kd (e' + clip(kp e,
+        -c, c) / kd)``, a nested saturation [T92]: a large error closes at a speed of at most
+        ``c / kd`` instead of at once through a command the actuators' rate limit cannot
+        follow. Within the bound the law is the paper's, bit for bit. Bounding ``kd e'`` as
+        well (the whole ``kp e + kd e'``, this field's meaning before 2026-11-23) kept less
+        of the region of attraction (benchmarks/README.md "The bound on the proportional
+        correction"). Beyond the paper.
 
     References
     ----------
     .. [P] paper Section 3.2; NOTES.md "Intelligent controllers".
+    .. [T92] A. R. Teel, "Global stabilization and restricted tracking for multiple
+       integrators with bounded controls", Systems & Control Letters 18 (1992) 165-171.
     """
 
     nu: int
