@@ -89,6 +89,7 @@ from flatfree._validate import (
     as_real,
     boolean,
     finite,
+    nonnegative,
     positive,
     positive_or_inf,
     real,
@@ -443,6 +444,16 @@ class MfcNaturalSettings(_SampleCountSettings):
         already moves Spa and Catalunya (65 and 98 of 100 laps, up to 4.50 cm, against 62 and
         97); 6 loses the 5 cm start at 20 m/s (benchmarks/README.md "The bound on the
         proportional correction").
+    steer_min_speed : float
+        Measured speed [m/s] below which the lateral loop holds the steer applied last
+        (0: never). At a standstill the steer does not move e_y: the iPD's F absorbs the
+        missing response and the law, an integrator in disguise there, turns the wheels to
+        their lock within seconds (peugeot406, a 5 cm offset, 1 s standing: 0.42 rad, and
+        pulling away from it swings the car 0.28 m off its path). Held, the estimators keep
+        running on the held steer and the law takes over when the car moves: pulling away from
+        0.05-1 m off, the error never exceeds the start's (``benchmarks/pull_away.py``). 1 m/s
+        is below every speed of the named scenarios (the recording's stop ends at 1.9 m/s),
+        so their runs are unchanged. Beyond the paper.
     window_lat : int
         Samples of the F estimator window (lateral loop).
     derivative_lat : str
@@ -547,6 +558,7 @@ class MfcNaturalSettings(_SampleCountSettings):
     wn_lat_speed: float = 30.0
     wn_lat_ratio: float = 1.5
     correction_max: float = 4.0
+    steer_min_speed: float = 1.0
     window_lat: int = 100
     derivative_lat: str = "model"
     denoise_lon: int = 0
@@ -581,6 +593,7 @@ class MfcNaturalSettings(_SampleCountSettings):
         positive("alpha_lat", self.alpha_lat, "(m/s^2)/rad")
         positive("wn_lat", self.wn_lat, "rad/s")
         positive_or_inf("correction_max", self.correction_max, "m/s^2")
+        nonnegative("steer_min_speed", self.steer_min_speed, "m/s")
         if finite("wn_lat_speed", self.wn_lat_speed, "m/s") < 0.0:
             raise ValueError(f"wn_lat_speed = {self.wn_lat_speed!r} m/s: must be >= 0 "
                              "(0: no schedule)")
@@ -881,7 +894,8 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                          s.wn_lat_ratio, float(s.estimator_lat == "imu"),
                          math.exp(-dt / s.imu_filter_s), (2.0 * w_o + w_b) * dt,
                          (w_o * w_o + 2.0 * w_o * w_b) * dt,
-                         0.0, 0.0, 0.0, 0.0, 0.0, w_o * w_o * w_b * dt, 0.0])
+                         0.0, 0.0, 0.0, 0.0, 0.0, w_o * w_o * w_b * dt, 0.0,
+                         s.steer_min_speed])
     elif controller == "mfc-flat":
         s2: MfcFlatSettings = settings
         positive("mass", mass, "kg")
@@ -908,6 +922,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
 _IMU_ON, _IMU_PHI, _IMU_L1, _IMU_L2 = 18, 19, 20, 21
 _IMU_A, _IMU_U, _IMU_E, _IMU_ED, _IMU_STARTED = 22, 23, 24, 25, 26
 _IMU_L3, _IMU_B = 27, 28  # bias gain, bias estimate (kept across restarts: the bias persists)
+_STEER_MIN_V = 29  # MfcNaturalSettings.steer_min_speed [m/s]
 _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
 _UMIN_I, _UMAX_I = int(IPAR.U_MIN), int(IPAR.U_MAX)
 _K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
@@ -1053,6 +1068,11 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
                     delta = p_lat[_UMIN_I]
                 elif delta > p_lat[_UMAX_I]:
                     delta = p_lat[_UMAX_I]
+    if kind == 2 and coef.shape[0] > _STEER_MIN_V and meas[3] < coef[_STEER_MIN_V]:
+        # too slow for the steer to move e_y (MfcNaturalSettings.steer_min_speed): hold the
+        # steer applied last; the estimators are told so (their window keeps its time base)
+        delta = u_prev
+        intelligent_set_applied(p_lat, s_lat, delta)
     return tw, delta
 
 
@@ -1172,9 +1192,10 @@ class NaturalOutputController:
         Conventions (ISO 8855, as the whole library): body axes at the CoG, x forward, y
         left, z up; the yaw rate, the steer and the curvature are positive to the left
         (counter-clockwise seen from above). The torque is the sum at the wheels, > 0
-        driving, < 0 braking. The lateral loop assumes a moving car: at a standstill the steer
-        does not move ``e_y`` and the iPD winds the steer up; :meth:`reset` at the actuators'
-        positions when the car pulls away (or do not call ``step`` while it stands). A car
+        driving, < 0 braking. Below :attr:`MfcNaturalSettings.steer_min_speed` (1 m/s) the
+        steer applied last is held: at a standstill the steer does not move ``e_y`` and the
+        iPD would wind the wheels to their lock (with the hold off, ``reset`` at the
+        actuators' positions when the car pulls away). A car
         started off its reference comes back at a bounded speed
         (:attr:`MfcNaturalSettings.correction_max`: from 3 m on the bundled presets at
         5-60 m/s, measured; the

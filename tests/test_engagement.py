@@ -1,5 +1,7 @@
-"""Starting off the path with the natural-output controller in a user's loop:
-MfcNaturalSettings.correction_max (benchmarks/initial_offset.py, whose loop these tests run)."""
+"""Engaging the natural-output controller in a user's loop: starting off the path
+(MfcNaturalSettings.correction_max; benchmarks/initial_offset.py, whose loop these tests run)
+and pulling away from a standstill (MfcNaturalSettings.steer_min_speed; benchmarks/pull_away.py).
+"""
 
 from __future__ import annotations
 
@@ -14,6 +16,11 @@ from flatfree import MfcNaturalSettings
 @pytest.fixture(scope="module")
 def offset_bench():
     return load_script("benchmarks/initial_offset.py")
+
+
+@pytest.fixture(scope="module")
+def pull_bench():
+    return load_script("benchmarks/pull_away.py")
 
 
 def test_a_start_off_the_path_is_recovered_with_the_default_bound(offset_bench):
@@ -98,3 +105,45 @@ def test_the_default_bound_leaves_the_paper_laps_unchanged(track):
     assert bounded.status.value == "completed"
     for name in ("x", "y", "steer_cmd", "f_lat"):
         np.testing.assert_array_equal(bounded.signals[name], free.signals[name])
+
+
+def test_pulling_away_holds_the_steer_below_steer_min_speed(pull_bench):
+    """peugeot406, 10DoF, noise-free, standing 1 s 0.3 m left of a straight path, then 2 m/s^2
+    to 15 m/s (benchmarks/pull_away.py): with the steer law running at a standstill
+    (steer_min_speed 0) and the paper's unbounded correction the wheels wind up (0.53 rad
+    measured) and the car leaves the path (at 5.6 s measured); with the defaults (the steer
+    held below 1 m/s, the bound 4 m/s^2) the error never exceeds the start's and closes
+    (measured: 0.300 m max, 0.0000 at 20 s, the steer within 0.100 rad). Checked: left, and
+    max <= the offset + 1 mm, < 1 cm at the end, the steer < 0.2 rad."""
+    assert MfcNaturalSettings().steer_min_speed == 1.0
+    *_, left = pull_bench.run(MfcNaturalSettings(steer_min_speed=0.0,
+                                                 correction_max=math.inf), 0.3)
+    assert left < math.inf
+    worst, end, steer, left = pull_bench.run(MfcNaturalSettings(), 0.3)
+    assert left == math.inf
+    assert worst <= 0.301 and end < 0.01 and steer < 0.2
+
+
+def test_a_standing_car_keeps_its_steer():
+    """Below steer_min_speed the step returns the steer applied last whatever e_y says, and
+    the estimators run on (the law acts on the first step above it); 0 turns the hold off.
+    Refused: a negative or non-finite speed, naming the field and the unit."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import NaturalOutputController
+    from flatfree.vehicles import load_vehicle
+
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    for vmin, held in ((1.0, True), (0.0, False)):
+        c = NaturalOutputController(dt=1e-3, actuators=act,
+                                    settings=MfcNaturalSettings(steer_min_speed=vmin))
+        c.reset(steer0=0.02)
+        steers = [c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5)[1] for _ in range(300)]
+        assert (max(abs(v - 0.02) for v in steers) == 0.0) is held
+    c = NaturalOutputController(dt=1e-3, actuators=act)  # the default hold, 1 m/s
+    c.reset(steer0=0.02)
+    for _ in range(300):
+        c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5)
+    assert c.step(vx=1.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=1.5)[1] != 0.02
+    for bad in (-0.1, math.inf, math.nan):
+        with pytest.raises(ValueError, match=r"^steer_min_speed = .* m/s: "):
+            MfcNaturalSettings(steer_min_speed=bad)
