@@ -141,8 +141,9 @@ REALISTIC_SENSORS = SensorSuite({
 
 #: Settings of the natural-output controller used by every named scenario: the defaults of
 #: :class:`~flatfree.controllers.vehicle.MfcNaturalSettings` (the same on every track; how they
-#: were chosen: benchmarks/README.md "Closed loop"). ``{"yaw_damping": 0.0, "wn_lat": 4.0}``
-#: is the paper's design without the yaw damper.
+#: were chosen: benchmarks/README.md "Closed loop"). ``{"yaw_damping": 0.0, "wn_lat": 4.0,
+#: "wn_lat_speed": 0.0, "correction_max": math.inf, "steer_min_speed": 0.0}`` is the paper's
+#: design (no yaw damper, constant gains, no bound, no hold at low speed).
 NATURAL_SETTINGS: dict[str, float | int | str] = {}
 
 #: Settings of the natural-output controller for the ``dallara_av21`` (``recorded``): the same

@@ -374,9 +374,11 @@ class MfcNaturalSettings(_SampleCountSettings):
     car's steer gain; 30 puts the iPD below its stable range on that car, measured).
     They were chosen by sweeps on the 10DoF plant with the realistic sensors over Norisring,
     Monza, Spa and Budapest, several seeds (worst max lateral error, completion, steer rate);
-    the record is benchmarks/README.md "Closed loop". ``yaw_damping = 0`` with
-    ``wn_lat = 4`` is the paper's design unchanged (it completes Norisring noise-free at
-    2.1 cm but leaves the track on fast tracks and with noise: see ``yaw_damping``).
+    the record is benchmarks/README.md "Closed loop". ``yaw_damping = 0``, ``wn_lat = 4``,
+    ``wn_lat_speed = 0``, ``correction_max = inf`` and ``steer_min_speed = 0`` are the
+    paper's design unchanged (it completes Norisring noise-free at 2.1 cm but leaves the
+    track on fast tracks and with noise: see ``yaw_damping``; the last two never act on the
+    named scenarios' runs).
 
     Parameters
     ----------
