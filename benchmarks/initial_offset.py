@@ -10,12 +10,14 @@ offset: the largest tracking error |e_y - e_y_ref| after the first second and |e
 [m], and the settling time [s], the last time |e_y - e_y_ref| is above 1 cm (">25" if it still
 is at the end), for
 
-- ``correction_max`` = inf: the paper's law (no bound);
+- the paper's design (``PAPER_DESIGN``: constant gains at wn 4 rad/s, no yaw damper, no
+  bound, no low-speed hold; the peugeot406 only);
+- ``correction_max`` = inf: the default settings without the bound;
 - ``correction_max`` = 2, 3, 4 (the default), 6 m/s^2 (the iPD's proportional correction kp e
   bounded);
-- the paper's law with a reference that starts at the car and merges into the path in
-  ``T`` = 3 s (a quintic in time: e_y_ref = e0 phi(t), phi from 1 to 0 with zero slope and
-  curvature at both ends).
+- the defaults without the bound, with a reference that starts at the car and merges into
+  the path in ``T`` = 3 s (a quintic in time: e_y_ref = e0 phi(t), phi from 1 to 0 with zero
+  slope and curvature at both ends).
 
 Run as a script (about three minutes a car)::
 
@@ -45,6 +47,9 @@ T_CHECK = 6.0  # [s] the |e_y| reported
 SETTLED_M = 0.01  # [m] the settling band
 MERGE_S = 3.0
 CORRECTION_MAX = (2.0, 3.0, 4.0, 6.0)  # [m/s^2]
+#: the paper's natural-output design (flatfree.scenarios.NATURAL_SETTINGS' docstring)
+PAPER_DESIGN = {"yaw_damping": 0.0, "wn_lat": 4.0, "wn_lat_speed": 0.0,
+                "correction_max": math.inf, "steer_min_speed": 0.0}
 
 
 def merge(t: float, length: float) -> tuple[float, float, float]:
@@ -113,10 +118,13 @@ def main() -> None:
     def settings(c: float) -> ff.MfcNaturalSettings:
         return ff.MfcNaturalSettings(**{**base, "correction_max": c})
 
-    variants = [("correction_max = inf (the paper's law)", settings(math.inf), None)]
+    variants = []
+    if args.vehicle == "peugeot406":
+        variants += [("the paper's design", ff.MfcNaturalSettings(**PAPER_DESIGN), None)]
+    variants += [("correction_max = inf (the defaults unbounded)", settings(math.inf), None)]
     variants += [(f"correction_max = {c:g}" + (" (the default)" if c == default else ""),
                   settings(c), None) for c in CORRECTION_MAX]
-    variants += [(f"the paper's law, merging in {MERGE_S:g} s", settings(math.inf), MERGE_S)]
+    variants += [(f"unbounded, merging in {MERGE_S:g} s", settings(math.inf), MERGE_S)]
     for label, s, merge_s in variants:
         print(label)
         for v0 in speeds:

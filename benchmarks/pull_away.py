@@ -11,7 +11,7 @@ For each offset: the largest |e_y| [m], |e_y| at the end [m] and the largest app
 
 - ``steer_min_speed`` 0 (the steer law runs at every speed) and 1 m/s (the default: below it
   the steer applied last is held);
-- ``correction_max`` inf (the paper's law) and 4 m/s^2 (the default).
+- ``correction_max`` inf (no bound) and 4 m/s^2 (the default).
 
 Run as a script (about half a minute)::
 

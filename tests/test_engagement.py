@@ -25,9 +25,10 @@ def pull_bench():
 
 def test_a_start_off_the_path_is_recovered_with_the_default_bound(offset_bench):
     """peugeot406, 10DoF, noise-free, a straight path at 20 m/s, the car 0.3 m to its left,
-    12 s: the paper's law (correction_max inf) leaves the path (measured: 43.1 m max after the
-    first second); with the default bound (4 m/s^2 on kp e) the car comes back (measured:
-    0.164 m max after the first second, 0.000 m at 6 s, within 1 cm after 1.9 s). A bound of 3
+    12 s: unbounded (correction_max inf) the default gains leave the path (measured: 43.1 m
+    max after the first second); with the default bound (4 m/s^2 on kp e) the car comes back
+    (measured: 0.164 m max after the first second, 0.000 m at 6 s, within 1 cm after 1.9 s).
+    A bound of 3
     brings the car back from 0.1 m at 40 m/s (measured 0.002 m after the first second), the
     case the bound on kp e + kd e' together (this field's meaning before 2026-11-23) lost.
     The bounds are the run's own outcome, far from both figures: > 2 m (off any lane) and
@@ -55,7 +56,7 @@ def test_a_large_offset_closes_at_a_bounded_speed(offset_bench):
 
 
 def test_a_merging_reference_needs_no_bound(offset_bench):
-    """The start of the first test with the paper's law and a reference that starts at the car
+    """The start of the first test, unbounded, with a reference that starts at the car
     and merges into the path in 3 s (benchmarks/initial_offset.py, merge: a quintic, checked
     here at its ends and middle): tracked within 1 cm after the first second (measured 1 mm)
     and on the path at 6 s."""
@@ -68,7 +69,7 @@ def test_a_merging_reference_needs_no_bound(offset_bench):
 
 
 def test_correction_max_is_a_positive_bound_in_m_per_s2():
-    """MfcNaturalSettings.correction_max: > 0 or inf (the paper's law), carried into the
+    """MfcNaturalSettings.correction_max: > 0 or inf (no bound), carried into the
     lateral iPD's parameters; refused otherwise, naming the field and the unit."""
     from flatfree.actuators import ActuatorParams
     from flatfree.controllers.intelligent import IPAR
@@ -110,7 +111,7 @@ def test_the_default_bound_leaves_the_paper_laps_unchanged(track):
 def test_pulling_away_holds_the_steer_below_steer_min_speed(pull_bench):
     """peugeot406, 10DoF, noise-free, standing 1 s 0.3 m left of a straight path, then 2 m/s^2
     to 15 m/s (benchmarks/pull_away.py): with the steer law running at a standstill
-    (steer_min_speed 0) and the paper's unbounded correction the wheels wind up (0.53 rad
+    (steer_min_speed 0) and no bound on the correction the wheels wind up (0.53 rad
     measured) and the car leaves the path (at 5.6 s measured); with the defaults (the steer
     held below 1 m/s, the bound 4 m/s^2) the error never exceeds the start's and closes
     (measured: 0.300 m max, 0.0000 at 20 s, the steer within 0.100 rad). Checked: left, and
@@ -125,17 +126,20 @@ def test_pulling_away_holds_the_steer_below_steer_min_speed(pull_bench):
 
 
 def test_a_standing_car_keeps_its_steer():
-    """Below steer_min_speed the step returns the steer applied last whatever e_y says, and
-    the estimators run on (the law acts on the first step above it); 0 turns the hold off.
-    Refused: a negative or non-finite speed, naming the field and the unit."""
+    """Below steer_min_speed the step returns the steer applied last whatever e_y says, with
+    the estimators fed the applied steer or not (feed_applied False: the hold also tells them,
+    else they would see the law's outputs and move the held steer: 0.08 rad in 0.3 s,
+    measured), and within the steer range when the applied steer reported is beyond it; the
+    law acts on the first step above it; 0 turns the hold off. Refused: a negative or
+    non-finite speed, naming the field and the unit."""
     from flatfree.actuators import ActuatorParams
     from flatfree.controllers.vehicle import NaturalOutputController
     from flatfree.vehicles import load_vehicle
 
     act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
-    for vmin, held in ((1.0, True), (0.0, False)):
-        c = NaturalOutputController(dt=1e-3, actuators=act,
-                                    settings=MfcNaturalSettings(steer_min_speed=vmin))
+    for vmin, feed, held in ((1.0, True, True), (1.0, False, True), (0.0, True, False)):
+        c = NaturalOutputController(dt=1e-3, actuators=act, settings=MfcNaturalSettings(
+            steer_min_speed=vmin, feed_applied=feed))
         c.reset(steer0=0.02)
         steers = [c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5)[1] for _ in range(300)]
         assert (max(abs(v - 0.02) for v in steers) == 0.0) is held
@@ -143,6 +147,9 @@ def test_a_standing_car_keeps_its_steer():
     c.reset(steer0=0.02)
     for _ in range(300):
         c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5)
+    beyond = c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5, applied_steer=0.7)[1]
+    assert beyond == act.max_steer == 0.6
+    c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5, applied_steer=0.02)
     assert c.step(vx=1.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=1.5)[1] != 0.02
     for bad in (-0.1, math.inf, math.nan):
         with pytest.raises(ValueError, match=r"^steer_min_speed = .* m/s: "):

@@ -313,7 +313,7 @@ seed = 0                    # seed of the sensor noise
 #              estimator_lat = "imu" (lateral F from the accelerometers; the
 #              paper-imu scenario adds yaw_damping = 0.2, denoise_yaw = 20),
 #              imu_filter_s, observer_wn, observer_bias_wn,
-#              correction_max (m/s^2; default 4.0; inf: the paper's law),
+#              correction_max (m/s^2; default 4.0; inf: no bound),
 #              steer_min_speed (m/s; default 1.0: the steer held below it)
 #              (dallara_av21: alpha_lat = 60.0)
 

@@ -194,7 +194,7 @@ class IPAR(enum.IntEnum):
     L = 11  # buffer length, samples
     MOM = 12  # 1: the sums by sliding moments (weights polynomial in the lag), 0: plain sums
     REFRESH = 13  # samples between exact recomputations of the moments
-    CORR_MAX = 14  # bound on the feedback correction |kp e + kd e'|, y-unit/s^nu (inf: none)
+    CORR_MAX = 14  # bound on the proportional correction |kp e|, y-unit/s^nu (inf: none)
 
 
 _HP = len(IPAR)

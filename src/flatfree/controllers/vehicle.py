@@ -17,9 +17,11 @@ Section 3.3-3.4, NOTES.md):
     the reference path with an iPD (nu = 2) on the steer. No vehicle parameter at all. Added
     here (each documented in :class:`MfcNaturalSettings`, off-switchable): a parameter-free yaw
     damper on the steer, the paper's causal denoiser on the measurements, the estimators
-    fed with the inputs actually applied, and (``estimator_lat = "imu"``, beyond the paper)
-    the lateral F, e_y and e_y' from an inertial unit's measured e_y'' instead of the
-    algebraic estimator.
+    fed with the inputs actually applied, a speed schedule of the lateral gains, a bound on
+    the iPD's proportional correction (``correction_max``: a car off its path comes back at a
+    bounded speed), the steer held at a standstill (``steer_min_speed``), and
+    (``estimator_lat = "imu"``, beyond the paper) the lateral F, e_y and e_y' from an
+    inertial unit's measured e_y'' instead of the algebraic estimator.
 
 Outer path-following correction (``flatness`` and ``mfc-flat``; ``path_correction``, default
 on; off reproduces the paper's designs exactly). Both designs track velocities only
@@ -435,9 +437,11 @@ class MfcNaturalSettings(_SampleCountSettings):
         :class:`~flatfree.controllers.intelligent.IntelligentParams` ``correction_max``, a
         nested saturation): a large error closes at a speed of at most
         ``correction_max / kd`` (0.17-0.25 m/s at 4) instead of through a steer step that the
-        steer-rate limit turns into a growing swing. Why 4 (beyond the paper): without the
-        bound (inf, the paper's law) a car started 0.1 m off a straight path leaves it at 10
-        and 40 m/s, 5 cm suffice at 20 m/s; with 4 the peugeot406 and the bmw320i (at 5-40
+        steer-rate limit turns into a growing swing. Why 4 (beyond the paper): the gains
+        tuned for the tracks (``wn_lat`` 8-12 rad/s; the paper's 4 holds a wider region but
+        not the tracks' centimetres) leave, unbounded (inf), a region of attraction of
+        centimetres: a car started 0.1 m off a straight path leaves it at 10 and 40 m/s, 5 cm
+        suffice at 20 m/s; with 4 the peugeot406 and the bmw320i (at 5-40
         m/s) and the dallara_av21 (its alpha_lat 60, at 10-60 m/s) come back from 3 m, within
         1 cm after 4.2-6.3 s from 1 m and 12.2-18.3 s from 3 m, noise-free
         (``benchmarks/initial_offset.py [--vehicle V]``). On the
@@ -1075,6 +1079,12 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # steer applied last; the estimators are told so (their window keeps its time base)
         delta = u_prev
         intelligent_set_applied(p_lat, s_lat, delta)
+    # a held step returns the steer applied last, which a user's loop may report beyond the
+    # range (applied_steer); the law's own outputs are within it already
+    if delta < p_lat[_UMIN_I]:
+        delta = p_lat[_UMIN_I]
+    elif delta > p_lat[_UMAX_I]:
+        delta = p_lat[_UMAX_I]
     return tw, delta
 
 
@@ -1197,11 +1207,12 @@ class NaturalOutputController:
         driving, < 0 braking. Below :attr:`MfcNaturalSettings.steer_min_speed` (1 m/s) the
         steer applied last is held: at a standstill the steer does not move ``e_y`` and the
         iPD would wind the wheels to their lock (with the hold off, ``reset`` at the
-        actuators' positions when the car pulls away). A car
+        actuators' positions when the car pulls away; a NaN ``vx`` does not hold: the
+        lateral law does not need the speed). A car
         started off its reference comes back at a bounded speed
         (:attr:`MfcNaturalSettings.correction_max`: from 3 m on the bundled presets at
-        5-60 m/s, measured; the
-        paper's law, ``correction_max = inf``, leaves the path from 0.1 m). For a smooth
+        5-60 m/s, measured; unbounded, ``correction_max = inf``, the default gains leave the
+        path from 0.1 m). For a smooth
         engagement start the reference at the car and merge it into the path (``e_y_ref``
         and its derivatives, over ~3 s; ``benchmarks/initial_offset.py``).
 
