@@ -129,7 +129,8 @@ def test_a_standing_car_keeps_its_steer():
     """Below steer_min_speed the step returns the steer applied last whatever e_y says, with
     the estimators fed the applied steer or not (feed_applied False: the hold also tells them,
     else they would see the law's outputs and move the held steer: 0.08 rad in 0.3 s,
-    measured), and within the steer range when the applied steer reported is beyond it; the
+    measured), and within the steer range when the applied steer reported is beyond it (a
+    step held for a NaN e_y too); the
     law acts on the first step above it; 0 turns the hold off. Refused: a negative or
     non-finite speed, naming the field and the unit."""
     from flatfree.actuators import ActuatorParams
@@ -149,6 +150,9 @@ def test_a_standing_car_keeps_its_steer():
         c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5)
     beyond = c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5, applied_steer=0.7)[1]
     assert beyond == act.max_steer == 0.6
+    # the step held for a NaN e_y too (the shell clips every steer it returns)
+    assert c.step(vx=20.0, r=0.0, e_y=math.nan, kappa=0.0, vx_ref=20.0,
+                  applied_steer=-0.7)[1] == -0.6
     c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5, applied_steer=0.02)
     assert c.step(vx=1.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=1.5)[1] != 0.02
     for bad in (-0.1, math.inf, math.nan):

@@ -1079,12 +1079,6 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # steer applied last; the estimators are told so (their window keeps its time base)
         delta = u_prev
         intelligent_set_applied(p_lat, s_lat, delta)
-    # a held step returns the steer applied last, which a user's loop may report beyond the
-    # range (applied_steer); the law's own outputs are within it already
-    if delta < p_lat[_UMIN_I]:
-        delta = p_lat[_UMIN_I]
-    elif delta > p_lat[_UMAX_I]:
-        delta = p_lat[_UMAX_I]
     return tw, delta
 
 
@@ -1296,6 +1290,14 @@ class NaturalOutputController:
         z = self._arrays
         tw, delta = vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon,
                                  z.f_lat, z.f_yaw, m, c, a_tw, a_delta)
+        # a held step (a standstill, a NaN e_y) returns the steer applied last, which the
+        # caller may report beyond the range (applied_steer); in the engine, and for the law's
+        # own outputs, it is within the range already
+        lim = self._act.max_steer
+        if delta > lim:
+            delta = lim
+        elif delta < -lim:
+            delta = -lim
         if not (math.isfinite(tw) and math.isfinite(delta)):  # overflowed (Raises)
             self._overflowed(tw, delta, dict(
                 vx=vx, r=r, e_y=e_y, kappa=kappa, vx_ref=vx_ref, ax_ref=ax_ref, e_y_ref=e_y_ref,
