@@ -8,7 +8,10 @@ controllers), the whole loop runs inside :func:`_closed_loop` (``numba.njit``): 
    the run stops with status ``left_track`` when |e_y| exceeds the track half-width there (or
    :data:`DEFAULT_HALF_WIDTH_M` where the width is unknown), with ``non_finite`` when a
    state becomes NaN or infinite, and with ``completed`` when the car reaches the end of the
-   reference path (or the duration ends);
+   reference path (or the duration ends). On a road without friction patches and bank, the
+   projection waits for the next logged row while the car cannot have reached the road's
+   edge or the path's end since the last one (:func:`_closed_loop`, "Projections"): the same
+   run, the same status at the same step;
 2. every ``control_every`` plant steps the sensors sample the true signals (noise, bias, rate,
    delay; seeded) and the faults are applied; the lateral deviation, heading error and arc
    length are computed from the *measured* pose; the references are read at the reference
@@ -135,6 +138,7 @@ _STATUS = {0: Status.COMPLETED, 1: Status.LEFT_TRACK, 2: Status.NON_FINITE}
 _PYTHON = int(KIND.PYTHON)
 # plain ints for the compiled loop (numba folds module-level ints into constants)
 _W_LEFT, _W_RIGHT = int(GC.W_LEFT), int(GC.W_RIGHT)
+_KAPPA, _DKAPPA = int(GC.KAPPA), int(GC.DKAPPA)
 _ROLL, _PITCH = int(TenDoFState.roll), int(TenDoFState.pitch)
 _OMEGA_FL = int(TenDoFState.omega_fl)
 _F_HAT = int(IST.F_HAT)
@@ -232,8 +236,18 @@ def _time_at(table, s, i):
 (_LS_INIT, _LS_SEG, _LS_SEG_M, _LS_S_PREV, _LS_S_UNW, _LS_S_PREV_M, _LS_S_UNW_M, _LS_T_REF,
  _LS_T_CTRL, _LS_TW_APP, _LS_DE_APP, _LS_TW_CMD, _LS_DE_CMD, _LS_ME_Y, _LS_N_LOG,
  _LS_RESUME, _LS_ST_ROW, _LS_VX_P, _LS_VY_P, _LS_R_P, _LS_BANK_ROW,
- _LS_NF_TW, _LS_NF_DE, _LS_NF_FIRST) = range(24)
-_LS_N = 24
+ _LS_NF_TW, _LS_NF_DE, _LS_NF_FIRST, _LS_MOVED, _LS_SAFE, _LS_W_MIN, _LS_K_MAX) = range(28)
+_LS_N = 28
+
+# The true pose's projection between two logged rows (_closed_loop, "Projections"): the most the
+# car may move before the next projection [m] (a few of the path's 1 m segments, so that the
+# local search walks as few), the margin kept from the road's edge [m], the distance from the
+# path's end within which every step projects [m], and the bound on kappa e_y along the way
+# (then |ds| <= |dq| / (1 - 0.25), below 2.7 m for a 2 m move).
+_SKIP_MOVE_M = 2.0
+_SKIP_EDGE_M = 0.25
+_SKIP_END_M = 5.0
+_SKIP_KAPPA_EY = 0.25
 _PAUSE = 3  # status code: a Python controller must give the commands for step k
 
 
@@ -247,6 +261,36 @@ def _count_nonfinite(ls, k, tw_cmd, delta_cmd):
         ls[_LS_NF_DE] += 1.0
     if ls[_LS_NF_FIRST] < 0.0:
         ls[_LS_NF_FIRST] = k
+
+
+@njit(**_JIT_LOOP)
+def _path_bounds(g, half_width):
+    """The narrowest half-width of the road the left-the-track check uses anywhere on the path
+    (the nodes' widths, ``half_width`` where they are unknown) [m], and a bound on the path's
+    curvature [1/m] (the nodes' largest, plus the most the Hermite interpolation between
+    them can add: ``h max |dkappa/ds|``)."""
+    w_min = math.inf
+    k_abs = 0.0
+    dk_abs = 0.0
+    for i in range(g.shape[0]):
+        for c in (_W_LEFT, _W_RIGHT):
+            w = g[i, c]
+            w_min = min(w_min, w if math.isfinite(w) else half_width)
+        k_abs = max(k_abs, abs(g[i, _KAPPA]))
+        dk_abs = max(dk_abs, abs(g[i, _DKAPPA]))
+    h = g[1, 0] - g[0, 0] if g.shape[0] > 1 else 0.0
+    return w_min, k_abs + h * dk_abs
+
+
+@njit(**_JIT_LOOP)
+def _safe_move(e_y, s_unw, s_end, w_min, k_max):
+    """How far [m] the car may move from a pose projected at ``e_y`` [m], ``s_unw`` [m]
+    before its projection could decide anything: leave the road or reach the path's end
+    (:func:`_closed_loop`, "Projections"); 0 where it must be projected at every step."""
+    ae = abs(e_y)
+    if not (k_max * (ae + _SKIP_MOVE_M) <= _SKIP_KAPPA_EY and s_end - s_unw > _SKIP_END_M):
+        return 0.0
+    return max(min(w_min - ae - _SKIP_EDGE_M, _SKIP_MOVE_M), 0.0)
 
 
 def _loop_scratch(n: int) -> tuple:
@@ -271,6 +315,24 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     ``_PAUSE`` at every control step with ``meas`` and ``crow`` filled; the caller writes the
     commands into ``ls``, sets ``ls[_LS_RESUME]`` and calls again with ``k0`` = the returned
     step.
+
+    Projections. The true pose's Frenet coordinates serve the logged row, the two checks that
+    end a run (the road's edge, the path's end), and the friction patches and bank, looked up
+    at its arc length. Without patches and bank the loop projects it at the logged rows only,
+    and in between wherever a check could decide: from a projected pose at ``e_y``, the car
+    must move at least ``w_min - |e_y|`` (``w_min`` the narrowest half-width anywhere on the
+    path: the distance to a curve changes no faster than the point moves) to reach an edge,
+    and ``s_end - s`` over ``1 / (1 - kappa |e_y|)`` to reach the end. So a projection may
+    wait while the distance moved since the last one, summed per plant step from the larger
+    speed of the step's two ends plus 1 m/s (``|vx| + |vy|``, a bound on the speed), stays
+    below :func:`_safe_move`: that edge distance less 0.25 m, at most 2 m, and none within
+    5 m of the end or where ``kappa_max (|e_y| + 2 m)`` exceeds 1/4. The controller sees the
+    measured pose's projection, made at every control step as before, so the trajectory is
+    the same bit for bit and the run ends at the same step; the logged path coordinates are
+    the same to round-off (the local search may start from an older segment; on the named
+    scenarios and the seven tracks, bit for bit too; tests/test_projection_skip.py).
+    It saves one projection per plant step of two (the measured pose is noisy): ~50 ns of
+    ~1000 (benchmarks/README.md "Closed loop", session 20).
     """
     xn, work, diag, u, truth, meas_s = scratch
     n = x.shape[0]
@@ -303,6 +365,9 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         ls[_LS_NF_TW] = 0.0  # control steps with a non-finite torque command
         ls[_LS_NF_DE] = 0.0  # ... steer command
         ls[_LS_NF_FIRST] = -1.0  # plant step of the first one (-1: none)
+        ls[_LS_MOVED] = 0.0  # the most the car moved since the true pose's last projection
+        ls[_LS_SAFE] = 0.0  # ... that leaves the checks undecided (0: project every step)
+        ls[_LS_W_MIN], ls[_LS_K_MAX] = _path_bounds(g, half_width)
     seg = int(ls[_LS_SEG])
     seg_m = int(ls[_LS_SEG_M])
     s_prev = ls[_LS_S_PREV]
@@ -322,6 +387,17 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     vy_p = ls[_LS_VY_P]
     r_p = ls[_LS_R_P]
     bank_row = int(ls[_LS_BANK_ROW])
+    moved = ls[_LS_MOVED]
+    safe = ls[_LS_SAFE]
+    w_min = ls[_LS_W_MIN]
+    k_max = ls[_LS_K_MAX]
+    # the true pose's projection may wait for the next logged row where nothing else needs it:
+    # no friction patches and no bank, which are looked up at its arc length ("Projections")
+    lazy = patches.shape[0] == 0 and bank_table.shape[0] == 0
+    s = s_prev
+    e_y = 0.0
+    e_psi = 0.0
+    kap = 0.0
     inv_dt = 1.0 / dt
     form_ey_ddot = wants_ey_ddot(kind, coef)
     resume = ls[_LS_RESUME] == 1.0
@@ -339,18 +415,32 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         if not all_finite(x):
             status = 2
             break
-        seg_old = seg
-        s, e_y, e_psi, kap, seg = frenet_project(g, closed, truth[0], truth[1], truth[2], seg)
-        s_unw += progress(s, s_prev, length, closed)
-        s_prev = s
-        w = g[seg, _W_LEFT] if e_y > 0.0 else g[seg, _W_RIGHT]
-        if not math.isfinite(w):
-            w = half_width
-        if abs(e_y) > w:
-            status = 1
-            break
-        if s_unw >= s_end:
-            break  # the end of the reference path is reached: completed
+        project = True
+        if lazy and c_log != 0:
+            if not (resume and k == k0):  # (a resumed step was counted before the pause)
+                # the distance covered over the last plant step, bounded by the larger speed
+                # of its two ends in each axis, plus 1 m/s for what the RK4 stages may reach
+                moved += dt * (max(abs(vx_p), abs(truth[3])) + max(abs(vy_p), abs(truth[4]))
+                               + 1.0)
+            project = not moved < safe  # (NaN: project)
+        seg_old = -1  # the true pose's projection of this step, if any, started from seg_old
+        if project:
+            seg_old = seg
+            s, e_y, e_psi, kap, seg = frenet_project(g, closed, truth[0], truth[1], truth[2],
+                                                     seg)
+            s_unw += progress(s, s_prev, length, closed)
+            s_prev = s
+            w = g[seg, _W_LEFT] if e_y > 0.0 else g[seg, _W_RIGHT]
+            if not math.isfinite(w):
+                w = half_width
+            if abs(e_y) > w:
+                status = 1
+                break
+            if s_unw >= s_end:
+                break  # the end of the reference path is reached: completed
+            moved = 0.0
+            if lazy:
+                safe = _safe_move(e_y, s_unw, s_end, w_min, k_max)
         if c_ctrl == 0 and not (resume and k == k0):
             kc = k if ctrl_every == 1 else k // ctrl_every
             # the CoG's acceleration in body axes over the last plant step (module docstring)
@@ -490,6 +580,8 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     ls[_LS_VY_P] = vy_p
     ls[_LS_R_P] = r_p
     ls[_LS_BANK_ROW] = bank_row
+    ls[_LS_MOVED] = moved
+    ls[_LS_SAFE] = safe
     return status, k, n_log
 
 
