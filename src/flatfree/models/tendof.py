@@ -174,11 +174,12 @@ vehicle and model constants, built by :meth:`TenDoF.__init__`) and the two tyres
 velocities and the relaxed-slip dynamics, wheel by wheel; (2) the tyre forces of the four
 wheels at once; (3) body forces, moments and wheel spin, wheel by wheel. The per-wheel values
 travel between the passes in the ``diag`` array (its columns are :func:`flatfree.tires.
-mf_combined4`'s lane layout; the friction scale borrows the ``kappa_plain`` column until pass 3
-writes it). Pass 2 is, by default (:attr:`TenDoFOptions.tire_lanes`), one loop over four SIMD
-lanes: the slip angle's ``atan`` and the whole combined-slip Magic Formula, branch-free, with
-the polynomial ``atan``, ``sin``, ``cos``, ``exp`` of ``flatfree._vecmath``; LLVM evaluates
-the four wheels in 4-wide vector registers. It gives the forces of the scalar kernels to
+mf_combined4`'s lane layout; the friction scales, which pass 2 takes from the input, wait in
+the ``kappa_plain`` column until pass 3 writes it). Pass 2 is, by default
+(:attr:`TenDoFOptions.tire_lanes`), one loop over four SIMD lanes: the slip angle's ``atan``
+and the whole combined-slip Magic Formula, branch-free, with the polynomial ``atan``, ``sin``,
+``cos``, ``exp`` of ``flatfree._vecmath``; LLVM evaluates the four wheels in 4-wide vector
+registers. It gives the forces of the scalar kernels to
 round-off (1-2 ulp elementary functions) and the trajectories of the scalar path to ~1e-14 of
 each state's range (``tests/test_tendof_fastpath.py``). With ``tire_lanes=False`` pass 2 calls
 ``math.atan`` and :func:`flatfree.tires.mf_combined` wheel by wheel, and the body's cos and
@@ -195,7 +196,9 @@ presets: max difference 2.9e-13 of each state's largest magnitude). The hot kern
 compiled without numba's reference counting (they allocate nothing): its per-call atomic
 increments and decrements of every array argument cost ~40 % of the run time. One RK4 step
 evaluates the steer angles' cos and sin once for its four stages (the input is held) and the
-diagnostic plain slip ratios only in its last stage (the one it leaves in ``diag``).
+diagnostic plain slip ratios only in its last stage (the one it leaves in ``diag``). Pass 3 and
+the body read their constants before their first store to ``dx`` (which, for all the compiler
+knows, may overlap ``p`` and ``x``), so that nothing is loaded again between the stores.
 
 References
 ----------
@@ -550,6 +553,13 @@ def _bank_trig(u):
     return math.cos(bank), sb * math.sin(e), sb * math.cos(e)
 
 
+@njit(**dict(_JIT, forceinline=True))
+def _of_wheel(t, w):
+    """``t[w]`` for a 4-tuple ``t`` and a wheel (lane) index ``w``, by selects: a lane loop
+    evaluates them in vector registers, and an unrolled wheel loop folds them away."""
+    return (t[0] if w == 0 else t[1]) if w < 2 else (t[2] if w == 2 else t[3])
+
+
 @njit(**_JIT_NO_REFCOUNT)
 def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     """Time derivative of the 10DoF state (module docstring), written into ``dx``.
@@ -642,8 +652,9 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
 
     # Three passes over the wheels: (1) loads, slips and the relaxed-slip dynamics; (2) the
     # tyre forces of all four wheels at once; (3) body forces and wheel spin. Per-wheel values
-    # pass between them in ``diag`` (its columns are the tyre kernel's lane layout, the friction
-    # scale borrowing the kappa_plain column until pass 3 fills it).
+    # pass between them in ``diag`` (its columns are the tyre kernel's lane layout; the
+    # friction scales, which pass 2 takes from ``u``, wait in the kappa_plain column until
+    # pass 3 fills it).
     if diag.shape[1] != NDIAG:
         raise ValueError("rhs_kernel: diag must have shape (4, 6)")
     for w in range(4):
@@ -724,6 +735,11 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
         # above), so the loop touches no memory but diag at a constant stride: LLVM vectorises it.
         ta = vm.as_tuple(tpf, _NTP)
         tb = vm.as_tuple(tpr, _NTP)
+        # the friction scales as values too, not from diag: the loop's vector loads of diag
+        # wait for pass 1's scalar stores to it just before (a vector load cannot take its
+        # data from several stores in flight), and with one column fewer to load an RK4 step
+        # took 10-60 ns less (measured, 2026-11-23)
+        mu4 = (u[_MU], u[_MU + 1], u[_MU + 2], u[_MU + 3])
         # the variant, decided once per model (_build_params: flatfree.tires._lanes_general,
         # _lanes_g_plain on the two tyres), not at every call
         variant = p[_LVAR]
@@ -732,36 +748,61 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
                 alpha = vm.atan(diag[w, 3])
                 diag[w, 3] = alpha
                 diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
-                                                           diag[w, 5], ta, tb, w < 2, True)
+                                                           _of_wheel(mu4, w), ta, tb, w < 2,
+                                                           True)
         elif variant == 1.0:
             # weighting curves with E = 0 (flatfree.tires._mf_combined_lane, g_plain)
             for w in range(4):
                 alpha = vm.atan(diag[w, 3])
                 diag[w, 3] = alpha
                 diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
-                                                           diag[w, 5], ta, tb, w < 2, False,
-                                                           True)
+                                                           _of_wheel(mu4, w), ta, tb, w < 2,
+                                                           False, True)
         else:
             for w in range(4):
                 alpha = vm.atan(diag[w, 3])
                 diag[w, 3] = alpha
                 diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
-                                                           diag[w, 5], ta, tb, w < 2, False)
+                                                           _of_wheel(mu4, w), ta, tb, w < 2,
+                                                           False)
     else:
         # scalar reference: slip_angle's atan and mf_combined, wheel by wheel
         for w in range(4):
             alpha = math.atan(diag[w, 3])
             diag[w, 3] = alpha
-            diag[w, 1], diag[w, 2] = mf_combined(diag[w, 4], alpha, diag[w, 0], diag[w, 5],
+            diag[w, 1], diag[w, 2] = mf_combined(diag[w, 4], alpha, diag[w, 0], u[_MU + w],
                                                  tpf if w < 2 else tpr)
 
+    # Everything pass 3 and the body read from p and x is read here, before their first store
+    # to dx: the compiler must assume that dx may overlap p and x and would load again after
+    # each store whatever is read after it, on the way to the derivatives that the next RK4
+    # stage waits for (read after the tyres, not before them, where they would only add to
+    # the registers that the tyre lanes' loop needs).
+    psi = x[_PSI]
+    lanes = p[_LANES] != 0.0
+    sgn_e0 = p[_SGN0]
+    f_roll = p[_FR]
+    tau_b = p[_TAUB]
+    v_min = p[_VMIN]
+    inv_iw_f = p[_INVIWF]
+    inv_iw_r = p[_INVIWR]
+    inv_m = p[_INVM]
+    g0 = p[_G]
+    inv_iz = p[_INVIZ]
+    inv_ms = p[_INVMS]
+    inv_iroll = p[_INVIROLL]
+    inv_ipitch = p[_INVIPITCH]
+    inv_tau = p[_INVTAUA]
+    hroll = p[_HROLL]
+    hs = p[_HS]
+    h_drag = p[_HD]
     for w in range(4):
         front = w < 2
         left = (w % 2) == 0
         if front:
             xi = lf
             tt = tf
-            inv_iw = p[_INVIWF]
+            inv_iw = inv_iw_f
             tdrive = drv_f
             tbrake = brk_f
             if left:
@@ -773,7 +814,7 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
         else:
             xi = -lr
             tt = tr
-            inv_iw = p[_INVIWR]
+            inv_iw = inv_iw_r
             tdrive = drv_r
             tbrake = brk_r
             cd = 1.0
@@ -792,24 +833,22 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
 
         # ---- wheel spin ([VM] 1.7) ----
         om = x[_OM + w]
-        sgn0 = _smooth_sign(om, p[_SGN0])
-        tq = tdrive - re * fx - p[_FR] * fz * re * sgn0
+        sgn0 = _smooth_sign(om, sgn_e0)
+        tq = tdrive - re * fx - f_roll * fz * re * sgn0
         if tbrake > 0.0:
-            eps_b = max(p[_SGN0], tbrake * p[_TAUB] * inv_iw)
+            eps_b = max(sgn_e0, tbrake * tau_b * inv_iw)
             tq -= tbrake * _smooth_sign(om, eps_b)
         dx[_OM + w] = tq * inv_iw
 
         if plain_slip:
             # plain slip ratio (diagnostics): the contact-point speed of pass 1, recomputed
             vxw = (vx - r * yj) * cd + (vy + r * xi) * sd
-            diag[w, 5] = (om * re - vxw) / max(abs(vxw), p[_VMIN])
+            diag[w, 5] = (om * re - vxw) / max(abs(vxw), v_min)
 
     # ---- planar motion ([VM] 1.3) ----
-    inv_m = p[_INVM]
     ax = (sum_fx - fd) * inv_m  # body-frame CoG acceleration
     ay = sum_fy * inv_m
-    psi = x[_PSI]
-    if p[_LANES] != 0.0:
+    if lanes:
         # the fast path's elementary functions (flatfree._vecmath, <= 2 ulp; inlined
         # polynomials instead of four libm calls per right-hand side)
         cpsi = vm.cos(psi)
@@ -828,25 +867,22 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
     dx[_VY] = ay - r * vx
     # gravity down the bank's slope (Model, item 7); exactly nothing on a flat road, where
     # _bank_trig gives sbx = sby = 0 (x - 0.0 is x)
-    dx[_VX] -= p[_G] * sbx
-    dx[_VY] -= p[_G] * sby
-    dx[_R] = mz * p[_INVIZ]
+    dx[_VX] -= g0 * sbx
+    dx[_VY] -= g0 * sby
+    dx[_R] = mz * inv_iz
 
     # ---- sprung body ([VM] 1.4, module docstring item 2) ----
-    hroll = p[_HROLL]
-    hs = p[_HS]
     dx[_Z] = zd
-    dx[_ZD] = (f_heave + lift_f + lift_r) * p[_INVMS]
+    dx[_ZD] = (f_heave + lift_f + lift_r) * inv_ms
     dx[_PHI] = phid
-    dx[_PHID] = (ms * hroll * (ay + g * sphi) + m_roll_susp) * p[_INVIROLL]
+    dx[_PHID] = (ms * hroll * (ay + g * sphi) + m_roll_susp) * inv_iroll
     dx[_TH] = thd
     dx[_THD] = (
-        -ms * hs * ax - fd * p[_HD] + ms * g * hs * sth - m_pitch_susp
+        -ms * hs * ax - fd * h_drag + ms * g * hs * sth - m_pitch_susp
         - lf * lift_f + lr * lift_r
-    ) * p[_INVIPITCH]
+    ) * inv_ipitch
 
     # ---- acceleration filter ([VM] 1.5) ----
-    inv_tau = p[_INVTAUA]
     dx[_AXF] = (ax - axf) * inv_tau
     dx[_AYF] = (ay - ayf) * inv_tau
 
