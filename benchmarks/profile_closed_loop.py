@@ -14,7 +14,8 @@ Run as a script (``python benchmarks/profile_closed_loop.py [scenario] [track]``
      same initial state (:func:`flatfree.models.tendof.simulate_kernel`; it retraces the lap's
      states, checked);
    - the Frenet projection of the true poses (:func:`flatfree.tracks.project_points`; the loop
-     projects the true pose at every plant step and, when it differs, the measured one);
+     projects the measured pose at every control step, and the true pose at the logged rows
+     and wherever a check could decide: about once per plant step in all);
    - the controller: :func:`~flatfree.controllers.vehicle.vehicle_step` on the recorded
      measurements, references and applied inputs (fresh controller state).
 
@@ -143,7 +144,7 @@ def main() -> None:
     seg0 = frenet_init(g, closed, px[0], py[0], ps[0])
     t_proj = best_time(project_points, g, closed, px, py, ps, seg0) / len(px)
     print(f"  one Frenet projection              {t_proj * 1e9:7.1f} ns/step "
-          f"(the loop projects the true and, when different, the measured pose)")
+          f"(the loop: the measured pose each control step, the true pose at logged rows)")
 
     # 3) the controller alone on its recorded inputs (fresh state each repeat; the first
     # repeat compiles)
@@ -157,8 +158,8 @@ def main() -> None:
     t_ctrl = best / m
     print(f"  controller alone (vehicle_step)    {t_ctrl * 1e9:7.1f} ns/step")
     rest = whole - t_plant - t_proj - t_ctrl
-    print(f"  the rest (whole - the three)       {rest * 1e9:7.1f} ns/step (sensors, second "
-          "projection, references, actuators, logging, loop; minus overlap)")
+    print(f"  the rest (whole - the three)       {rest * 1e9:7.1f} ns/step (sensors, the true "
+          "pose's projections, references, actuators, logging, loop; minus overlap)")
 
     # 4) simulate() end to end: what a run costs besides the loop, each piece timed alone
     _end_to_end(sc, tr)
