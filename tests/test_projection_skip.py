@@ -23,7 +23,7 @@ from flatfree.trajectory import Status
 # the logged path coordinates of the true pose: formed by the projection, whose local search
 # may start from another segment when it was skipped (the same foot point, to Newton's
 # convergence); everything else is the loop's state and must be the same bit for bit
-_PATH_SIGNALS = ("s", "e_y", "e_psi", "lateral_error", "yaw_error")
+_PATH_SIGNALS = ("s", "e_y", "e_psi", "lateral_error", "yaw_error", "course_error")
 
 
 def _scenario(**kw) -> Scenario:
@@ -41,9 +41,8 @@ def _fine(sc: Scenario) -> Scenario:
                                   log_dt_s=t.plant_dt_s, duration_s=t.duration_s))
 
 
-def _assert_rows_agree(coarse, fine) -> None:
-    every = int(round(coarse.time[1] / fine.time[1]))
-    assert every == 10
+def _assert_rows_agree(coarse, fine, every: int = 10) -> None:
+    assert int(round(coarse.time[1] / fine.time[1])) == every
     assert len(fine) >= (len(coarse) - 1) * every + 1
     for k in coarse:
         a = coarse[k]
@@ -75,6 +74,57 @@ def test_leaving_the_road_is_found_at_the_same_step():
     assert coarse.status is fine.status is Status.LEFT_TRACK
     assert coarse.status_time == fine.status_time
     _assert_rows_agree(coarse, fine)
+
+
+def _write_road(path, x, y, w) -> None:
+    """A track file of points with their half-widths left and right [m]."""
+    path.write_text("# x_m,y_m,w_tr_right_m,w_tr_left_m\n" + "".join(
+        f"{p:.6f},{q:.6f},{h:.4f},{h:.4f}\n" for p, q, h in zip(x, y, w, strict=True)))
+
+
+def test_a_narrow_road_is_left_at_the_same_step(tmp_path):
+    """An open road 1.4-3.0 m either side of a gentle S (curvature <= 0.005 1/m: the skip
+    goes on until |e_y| is 0.25 m short of the narrowest half-width, 1.4 m) with the steering
+    limited to 0.01 rad from 2 s: the car leaves it at the very step of the run projected at
+    every step, logged every 10 ms, every 0.1 s (the 2 m allowance binds) and with control
+    every 2 ms; through the Python door too."""
+    s = np.arange(0.0, 600.0, 2.0)
+    _write_road(tmp_path / "narrow.csv", s, 8.0 * np.sin(s / 40.0), 2.2 + 0.8 * np.sin(s / 13.0))
+    lock = Fault(kind="steer_limit", t_start_s=2.0, duration_s=50.0, value=0.01)
+    base = _scenario(reference=ReferenceSpec(track=str(tmp_path / "narrow.csv"), closed=False,
+                                             a_lat_max=4.0),
+                     faults=(lock,), seed=0, timing=Timing(duration_s=40.0, log_dt_s=0.01))
+    w_min, k_max = _path_bounds(prepare(base).reference.path.geometry, 7.5)
+    assert 1.39 < w_min < 1.41 and k_max < 0.01
+    for sc, every in ((base, 10), (base.with_(timing=Timing(duration_s=40.0, log_dt_s=0.1)), 100),
+                      (base.with_control_period(0.002), 10)):
+        coarse = simulate(sc)
+        fine = simulate(_fine(sc))
+        assert coarse.status is fine.status is Status.LEFT_TRACK
+        assert coarse.status_time == fine.status_time
+        _assert_rows_agree(coarse, fine, every)
+    door = simulate(base, controller=_Counting(base))
+    assert door.status is Status.LEFT_TRACK
+    assert door.status_time == simulate(base).status_time
+
+
+def test_two_laps_cross_the_start_line_with_the_same_arc_length():
+    """Two laps of Norisring: the unwrapped arc length is s plus the laps, so the logged one is
+    the every-step run's bit for bit, and the run ends at the same step (through the door)."""
+    sc = _scenario(reference=ReferenceSpec(track="Norisring", laps=2),
+                   timing=Timing(duration_s=400.0, log_dt_s=0.01))
+    coarse = simulate(sc)
+    fine = simulate(_fine(sc))
+    assert coarse.status is fine.status is Status.COMPLETED
+    assert coarse["s"][-1] > 1.9 * prepare(sc).reference.path.geometry[-1, 0]  # 2 laps
+    _assert_rows_agree(coarse, fine)
+    np.testing.assert_array_equal(coarse["s"], fine["s"][::10][:len(coarse)])
+    steps = []
+    for run in (sc, _fine(sc)):
+        door = _Counting(run)
+        simulate(run, controller=door)
+        steps.append(door.calls)
+    assert steps[0] == steps[1]
 
 
 class _Counting:
@@ -137,15 +187,15 @@ def test_what_needs_the_arc_length_at_every_step_keeps_the_projection_there():
 
 def test_the_distance_allowed_between_projections():
     """_safe_move: the road's narrowest half-width less the error and a 0.25 m margin, at most
-    2 m; none within 5 m of the path's end or where kappa e_y could reach 1/4 on the way (then
-    the arc length could outrun the distance moved by more than a third)."""
+    2 m; none within 5 m of the path's end or where kappa e_y could reach 1/2 on the way (then
+    the arc length could move more than twice the distance)."""
     assert _safe_move(0.01, 100.0, math.inf, 5.0, 0.02) == 2.0
     assert _safe_move(-0.01, 100.0, math.inf, 2.0, 0.02) == pytest.approx(2.0 - 0.01 - 0.25)
     assert _safe_move(1.9, 100.0, math.inf, 2.0, 0.02) == 0.0  # within the margin
     assert _safe_move(0.01, 100.0, 104.9, 5.0, 0.02) == 0.0  # near the end
     assert _safe_move(0.01, 100.0, 105.1, 5.0, 0.02) == 2.0
-    assert _safe_move(0.6, 100.0, math.inf, 5.0, 0.1) == 0.0  # 0.1 x 2.6 m > 0.25
-    assert _safe_move(0.4, 100.0, math.inf, 5.0, 0.1) == 2.0  # 0.1 x 2.4 m
+    assert _safe_move(3.1, 100.0, math.inf, 9.0, 0.1) == 0.0  # 0.1 x 5.1 m > 0.5
+    assert _safe_move(2.9, 100.0, math.inf, 9.0, 0.1) == 2.0  # 0.1 x 4.9 m
     assert _safe_move(math.nan, 100.0, math.inf, 5.0, 0.02) == 0.0
 
 

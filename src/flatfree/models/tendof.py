@@ -174,8 +174,9 @@ vehicle and model constants, built by :meth:`TenDoF.__init__`) and the two tyres
 velocities and the relaxed-slip dynamics, wheel by wheel; (2) the tyre forces of the four
 wheels at once; (3) body forces, moments and wheel spin, wheel by wheel. The per-wheel values
 travel between the passes in the ``diag`` array (its columns are :func:`flatfree.tires.
-mf_combined4`'s lane layout; the friction scales, which pass 2 takes from the input, wait in
-the ``kappa_plain`` column until pass 3 writes it). Pass 2 is, by default
+mf_combined4`'s lane layout; pass 1 stores the friction scales in the ``kappa_plain`` column,
+where the inner RK4 stages leave them and pass 3 of the last writes the slip ratio; pass 2
+takes them from the input). Pass 2 is, by default
 (:attr:`TenDoFOptions.tire_lanes`), one loop over four SIMD lanes: the slip angle's ``atan``
 and the whole combined-slip Magic Formula, branch-free, with the polynomial ``atan``, ``sin``,
 ``cos``, ``exp`` of ``flatfree._vecmath``; LLVM evaluates the four wheels in 4-wide vector
@@ -653,8 +654,8 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
     # Three passes over the wheels: (1) loads, slips and the relaxed-slip dynamics; (2) the
     # tyre forces of all four wheels at once; (3) body forces and wheel spin. Per-wheel values
     # pass between them in ``diag`` (its columns are the tyre kernel's lane layout; the
-    # friction scales, which pass 2 takes from ``u``, wait in the kappa_plain column until
-    # pass 3 fills it).
+    # friction scales stand in the kappa_plain column until pass 3 fills it, pass 2 takes
+    # them from ``u``).
     if diag.shape[1] != NDIAG:
         raise ValueError("rhs_kernel: diag must have shape (4, 6)")
     for w in range(4):
@@ -737,8 +738,9 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
         tb = vm.as_tuple(tpr, _NTP)
         # the friction scales as values too, not from diag: the loop's vector loads of diag
         # wait for pass 1's scalar stores to it just before (a vector load cannot take its
-        # data from several stores in flight), and with one column fewer to load an RK4 step
-        # took 10-60 ns less (measured, 2026-11-23)
+        # data from several stores in flight): one column fewer to load (with the constants
+        # read before the stores below, an RK4 step 26-41 ns faster: benchmarks/README.md
+        # "The 10DoF right-hand side: fewer memory waits")
         mu4 = (u[_MU], u[_MU + 1], u[_MU + 2], u[_MU + 3])
         # the variant, decided once per model (_build_params: flatfree.tires._lanes_general,
         # _lanes_g_plain on the two tyres), not at every call
