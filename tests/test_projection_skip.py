@@ -76,8 +76,13 @@ def test_leaving_the_road_is_found_at_the_same_step():
     _assert_rows_agree(coarse, fine)
 
 
-def _write_road(path, x, y, w) -> None:
-    """A track file of points with their half-widths left and right [m]."""
+def _write_road(path, x, y, w=None) -> None:
+    """A track file of points, with their half-widths left and right [m] if given (else the
+    loop's default half-width applies)."""
+    if w is None:
+        path.write_text("x,y\n" + "".join(f"{p:.6f},{q:.6f}\n" for p, q in zip(x, y,
+                                                                                 strict=True)))
+        return
     path.write_text("# x_m,y_m,w_tr_right_m,w_tr_left_m\n" + "".join(
         f"{p:.6f},{q:.6f},{h:.4f},{h:.4f}\n" for p, q, h in zip(x, y, w, strict=True)))
 
@@ -154,10 +159,9 @@ def test_the_path_end_is_reached_at_the_same_step(tmp_path):
     Python door runs the same loop as the compiled one."""
     x = np.arange(0.0, 200.0, 5.0)
     a = np.arange(5.0, 200.0, 5.0) / 60.0
-    xy = np.concatenate([np.column_stack([x, 0.0 * x]),
-                         np.column_stack([200.0 + 60.0 * np.sin(a), 60.0 - 60.0 * np.cos(a)])])
     f = tmp_path / "road.csv"
-    f.write_text("x,y\n" + "".join(f"{p:.6f},{q:.6f}\n" for p, q in xy))
+    _write_road(f, np.concatenate([x, 200.0 + 60.0 * np.sin(a)]),
+                np.concatenate([0.0 * x, 60.0 - 60.0 * np.cos(a)]))
     sc = _scenario(reference=ReferenceSpec(track=str(f), closed=False, a_lat_max=3.0),
                    timing=Timing(duration_s=60.0, log_dt_s=0.01))
     coarse = simulate(sc)

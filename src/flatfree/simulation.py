@@ -11,7 +11,7 @@ controllers), the whole loop runs inside :func:`_closed_loop` (``numba.njit``): 
    reference path (or the duration ends). On a road without friction patches and bank, the
    projection waits for the next logged row while the car cannot have reached the road's
    edge or the path's end since the last one (:func:`_closed_loop`, "Projections"): the same
-   run, the same status at the same step;
+   trajectory and status, at the same step (the logged path coordinates to round-off);
 2. every ``control_every`` plant steps the sensors sample the true signals (noise, bias, rate,
    delay; seeded) and the faults are applied; the lateral deviation, heading error and arc
    length are computed from the *measured* pose; the references are read at the reference

@@ -936,10 +936,11 @@ _K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
 
 
 # The step kernels allocate nothing and only index the arrays they are given: compiled without
-# numba's reference counting (flatfree._vecmath.no_refcount). Left to numba, the option is
-# inherited from the first caller that compiles them (and then cached): compiled first from a
-# loop or a call with reference counting (the Python door, NaturalOutputController), every call
-# of the closed loop's controller paid for it (measured: 232 instead of 130 ns per step).
+# numba's reference counting (flatfree._vecmath.no_refcount). Left to numba, the option came
+# from the first caller that compiled them (and was then cached): compiled first from a loop
+# with reference counting (a user's own @njit loop, profile_closed_loop.py's replay), every call
+# there paid for it (measured: 206-243 instead of 130-139 ns a call); the engine's closed loop
+# was not affected (measured, a process that stepped NaturalOutputController first).
 _JIT_STEP = no_refcount({"cache": True})
 
 
