@@ -307,15 +307,22 @@ seed = 0                    # seed of the sensor noise
 # mass = 1600.0
 
 [controller_settings]       # the chosen controller's own settings; empty: its defaults
+alpha_lat = 52.0            # mfc-natural: the peugeot406's tuning with the algebraic
+wn_lat = 7.6                # estimator (flatfree.scenarios.NATURAL_SETTINGS; remove these
+zeta_lat = 1.45             # six lines for another controller, or for the defaults, which
+wn_lat_speed = 40.0         # estimator_lat = "imu" uses)
+wn_lat_ratio = 2.5
+denoise_yaw = 100
 # flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal)
 # mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat,
 #              wn_lat_speed, wn_lat_ratio (speed schedule), yaw_damping,
 #              estimator_lat = "imu" (lateral F from the accelerometers; the
-#              paper-imu scenario adds yaw_damping = 0.2, denoise_yaw = 20),
+#              paper-imu scenario: the defaults and yaw_damping = 0.2,
+#              denoise_yaw = 20),
 #              imu_filter_s, observer_wn, observer_bias_wn,
 #              correction_max (m/s^2; default 4.0; inf: no bound),
 #              steer_min_speed (m/s; default 1.0: the steer held below it)
-#              (dallara_av21: alpha_lat = 60.0)
+#              (dallara_av21: the defaults and alpha_lat = 60.0)
 
 [reference]
 track = "Norisring"         # a bundled track (flatfree tracks) or a CSV path;

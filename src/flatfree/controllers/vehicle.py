@@ -371,13 +371,18 @@ class _SampleCountSettings:
 class MfcNaturalSettings(_SampleCountSettings):
     """Settings of the model-free controller on natural outputs (iP on Vx, iPD on e_y).
 
-    The defaults are the settings of the named peugeot406 scenarios (flatfree.scenarios), the
-    same on every track, at a 1 kHz control rate; the dallara_av21 (``recorded``) uses them with
+    The defaults are the base of every named tuning (flatfree.scenarios), the same on every
+    track, at a 1 kHz control rate: ``paper-imu`` uses them with its inertial estimator
+    (:data:`flatfree.scenarios.IMU_SETTINGS`), the dallara_av21 (``recorded``) with
     ``alpha_lat`` 60 (:data:`flatfree.scenarios.DALLARA_NATURAL_SETTINGS`: alpha follows the
-    car's steer gain; 30 puts the iPD below its stable range on that car, measured).
-    They were chosen by sweeps on the 10DoF plant with the realistic sensors over Norisring,
+    car's steer gain; 30 puts the iPD below its stable range on that car, measured), and the
+    peugeot406's ``paper`` (the paper's algebraic estimator) with six of them changed
+    (:data:`flatfree.scenarios.NATURAL_SETTINGS`: ``alpha_lat`` 52 and the gains matched to
+    it, found by a joint search in session 21; Spa 90 laps of 100 instead of 62). The
+    defaults were chosen by sweeps on the 10DoF plant with the realistic sensors over Norisring,
     Monza, Spa and Budapest, several seeds (worst max lateral error, completion, steer rate);
-    the record is benchmarks/README.md "Closed loop". ``yaw_damping = 0``, ``wn_lat = 4``,
+    the record is benchmarks/README.md "Closed loop"; the figures below are theirs.
+    ``yaw_damping = 0``, ``wn_lat = 4``,
     ``wn_lat_speed = 0``, ``correction_max = inf`` and ``steer_min_speed = 0`` are the
     paper's design unchanged (it completes Norisring noise-free at 2.1 cm but leaves the
     track on fast tracks and with noise: see ``yaw_damping``; the last two never act on the
@@ -1125,8 +1130,10 @@ class NaturalOutputController:
         these actuators (:func:`flatfree.actuators.actuate_step`: dead time, lag, rate limit,
         range, power cap) applied its previous command.
     settings : MfcNaturalSettings, optional
-        Default: the peugeot406 tuning (:data:`flatfree.scenarios.NATURAL_SETTINGS`) at 1 kHz;
-        use ``alpha_lat`` of the order of your car's steer gain
+        Default: ``MfcNaturalSettings()``, the base tuning at 1 kHz (the peugeot406's
+        ``paper`` runs ``MfcNaturalSettings(**natural_settings("peugeot406"))``, more robust
+        with the algebraic estimator: :data:`flatfree.scenarios.NATURAL_SETTINGS`); use
+        ``alpha_lat`` of the order of your car's steer gain
         (``natural_settings("dallara_av21")``), and :meth:`MfcNaturalSettings.for_period` at
         another control period.
 
