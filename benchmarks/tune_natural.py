@@ -15,12 +15,18 @@ that the reviewed bands and the 100-seed tables of benchmarks/README.md do not u
   when it leaves the track or its max lateral error exceeds 4 cm (issue 7's 2x of 2 cm).
 * **Norisring laps** (the default track, 2 cm asked): the max lateral error over the seeds.
 
-``random`` draws candidates over the lateral loop's settings (ranges in :data:`RANDOM`) and
-drops one as soon as it is worse on Spa than ``--max-bad`` (default: the defaults' count less
-2); ``local`` perturbs the best candidates found so far (log-normal steps of 15 % on 1-3
-settings, :data:`LOCAL`) and keeps those within ``--nor-max`` on Norisring; ``factors`` takes a
-candidate's changes against the defaults one at a time and all but one at a time, to tell
-which of them matter. A screen is a selection, not a measurement: check a candidate with
+Every candidate is a set of settings over the controller's defaults (``MfcNaturalSettings``;
+`paper`'s own tuning, ``scenarios.NATURAL_SETTINGS``, is what this found, candidate C of
+benchmarks/README.md). ``random`` draws candidates over the lateral loop's settings (ranges in
+:data:`RANDOM`; half of them without the speed schedule, ``wn_lat_speed`` 0, half without the
+position denoiser, ``denoise_lat`` 0, and ``derivative_lat`` either way) and drops one as soon
+as it is worse on Spa than ``--max-bad`` (default: the defaults' count less 2); ``local``
+perturbs the best candidates found so far (log-normal steps of 15 % on 1-3 settings,
+:data:`LOCAL`; its start is measured whatever its Norisring figure) and keeps those within
+``--nor-max`` on Norisring; ``factors`` takes a candidate's changes against the defaults one
+at a time and all but one at a time, to tell which of them matter. The summary at the end
+reads the whole ``--out`` file (earlier runs appended to it included: one file per screen).
+A screen is a selection, not a measurement: check a candidate with
 ``benchmarks/sweep_seeds.py --seeds 100 --set ...`` on every track before trusting it.
 """
 
@@ -52,9 +58,11 @@ BAD_M = 0.04
 
 
 def run(track: str, seed: int, settings: dict, duration_s: float | None = None):
-    """(completed, max lateral error [m]) of `paper` on ``track`` with ``settings``."""
+    """(completed, max lateral error [m]) of `paper` on ``track`` with ``settings`` over the
+    controller's defaults (not over `paper`'s own tuning, NATURAL_SETTINGS, which this search
+    found: every candidate and "the defaults" mean MfcNaturalSettings' values)."""
     sc = named_scenario("paper", track=track, seed=seed, duration_s=duration_s)
-    sc = sc.with_(controller_settings={**sc.controller_settings, **settings})
+    sc = sc.with_(controller_settings=dict(settings))
     m = compute_metrics(simulate(sc))
     return m.status == "completed", m.lateral_error_max_m
 
@@ -103,7 +111,8 @@ def _draw(rng: np.random.Generator) -> dict:
 
 def _step(s: dict, rng: np.random.Generator, scale: float = 0.15) -> dict:
     t = dict(s)
-    for k in rng.choice(list(LOCAL), size=int(rng.integers(1, 4)), replace=False):
+    for key in rng.choice(list(LOCAL), size=int(rng.integers(1, 4)), replace=False):
+        k = str(key)
         lo, hi = LOCAL[k]
         v = t.get(k, _default(k))
         if isinstance(lo, int):
@@ -151,7 +160,7 @@ def main(argv: list[str] | None = None) -> None:
 
     base = {**spa({}, spa_seeds), **norisring({}, nor_seeds)}
     print("defaults", base, flush=True)
-    max_bad = base["spa_bad"] - 2 if args.max_bad is None else args.max_bad
+    max_bad = max(base["spa_bad"] - 2, 0) if args.max_bad is None else args.max_bad
     elites = []
     if args.mode == "local":
         first = json.loads(args.start)

@@ -21,7 +21,7 @@ import numpy as np
 import flatfree as ff
 from flatfree.actuators import actuate_step, actuator_state
 from flatfree.models.tendof import TenDoF
-from flatfree.scenarios import IMU_SETTINGS
+from flatfree.scenarios import natural_settings
 from flatfree.tracks import frenet_init, frenet_project, lateral_deviation_acceleration
 
 
@@ -78,8 +78,9 @@ def run(settings: ff.MfcNaturalSettings, seconds: float, seed: int = 0) -> dict[
 
 def main(seconds: float = 10.0) -> None:
     for name, settings in (
-            ("algebraic (the paper's)", ff.MfcNaturalSettings()),
-            ("imu", ff.MfcNaturalSettings(**IMU_SETTINGS))):
+            # the named scenarios' tunings for the peugeot406 (`paper`, `paper-imu`)
+            ("algebraic (the paper's)", ff.MfcNaturalSettings(**natural_settings("peugeot406"))),
+            ("imu", ff.MfcNaturalSettings(**natural_settings("peugeot406", imu=True)))):
         out = run(settings, seconds)
         print(f"{name:24s} max |e_y| after 1 s: {100 * out['max_lateral_m']:.2f} cm "
               f"(speed at the end {out['vx_end']:.1f} m/s)")

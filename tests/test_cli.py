@@ -492,6 +492,24 @@ def test_demo_on_a_short_run_writes_report_and_figures(runner, tmp_path):
     assert all("steer_rms_vs_recorded_deg" in r for r in summary["recorded"])
 
 
+def test_vehicle_option_retunes_a_file_with_the_defaults(tmp_path):
+    """A peugeot406 scenario file whose controller settings are empty (the defaults: the
+    peugeot406's tuning until session 21, as files of the earlier template hold them) is
+    retuned for the new car by --vehicle, as a file with the peugeot406's present tuning is;
+    a file whose settings are the user's own keeps them."""
+    from flatfree.cli import build_scenario
+    from flatfree.scenarios import DALLARA_NATURAL_SETTINGS, NATURAL_SETTINGS, named_scenario
+
+    base = named_scenario("paper")
+    for settings in ({}, NATURAL_SETTINGS):
+        f = tmp_path / "base.toml"
+        base.with_(controller_settings=settings).save(f)
+        assert build_scenario(str(f), vehicle="dallara_av21").controller_settings == \
+            DALLARA_NATURAL_SETTINGS
+    base.with_(controller_settings={"wn_lat": 9.0}).save(f)
+    assert build_scenario(str(f), vehicle="dallara_av21").controller_settings == {"wn_lat": 9.0}
+
+
 def test_demo_bad_track_exits_2(runner, tmp_path):
     res = _invoke(runner, ["demo", "--out", str(tmp_path / "o"), "--track", "Atlantis"])
     assert res.exit_code == 2 and "Atlantis" in res.stderr and "Norisring" in res.stderr

@@ -706,7 +706,10 @@ def test_a_car_the_model_free_settings_were_not_tuned_on_is_warned_about(tmp_pat
     # changed under the peugeot406's settings)
     for sc in (named_scenario("paper-flatness", vehicle="dallara_av21",
                               duration_s=1.0).with_settings(["controller=mfc-natural"]),
-               named_scenario("paper", duration_s=1.0).with_(vehicle="dallara_av21")):
+               named_scenario("paper", duration_s=1.0).with_(vehicle="dallara_av21"),
+               # and its estimator changed on the way: 52 is still the peugeot406's
+               named_scenario("paper", duration_s=1.0).with_(vehicle="dallara_av21")
+               .with_settings(["controller_settings.estimator_lat=imu"])):
         with pytest.warns(UserWarning, match=r"alpha_lat at (its default 30 \(the "
                                              r"peugeot406's\)|52 \(peugeot406's\))") as got:
             prepare(sc)

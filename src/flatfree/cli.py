@@ -556,6 +556,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     bad input.
     """
     from flatfree.scenario import scenario_with_settings
+    from flatfree.vehicles.params import bundled_name
 
     if track is not None and recording is not None:
         raise _fail("give --track or --recording, not both")
@@ -580,8 +581,12 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             changes["vehicle"] = vehicle
             natural = _scenarios_module().natural_settings
             if changes.get("controller", sc.controller) == "mfc-natural" and vehicle != sc.vehicle:
+                # the peugeot406's settings before its algebraic tuning (session 21): the
+                # defaults, {}, as a file of the earlier template holds them
+                base_defaults = bundled_name(sc.vehicle) == "peugeot406"
                 for imu in (False, True):
-                    if ctrl_settings == natural(sc.vehicle, imu=imu):
+                    if ctrl_settings == natural(sc.vehicle, imu=imu) or (
+                            not imu and base_defaults and not ctrl_settings):
                         # the base's settings are its car's tuning: take the new car's
                         # (alpha_lat), with the same estimator
                         changes["controller_settings"] = natural(vehicle, imu=imu)

@@ -18,8 +18,10 @@ comparison runs. Names (:data:`SCENARIO_NAMES`):
 ``paper-imu``, ``recorded-imu``
     ``paper`` and ``recorded`` with the natural-output controller's lateral F taken from the
     inertial unit's accelerations instead of the algebraic estimator
-    (:data:`IMU_SETTINGS`: ``estimator_lat = "imu"``, a lighter yaw damper; everything else,
-    sensors included, the same). Beyond the paper: its design is ``paper``.
+    (:data:`IMU_SETTINGS`: ``estimator_lat = "imu"``, a lighter yaw damper, over the
+    controller's defaults and the car's alpha_lat, not over ``paper``'s algebraic tuning
+    :data:`NATURAL_SETTINGS`; everything else, sensors included, the same). Beyond the paper:
+    its design is ``paper``.
 ``<name>-noise-free``
     Each of the above with every sensor noise-free (``noise = false``; rates, delays kept).
 
@@ -227,8 +229,8 @@ def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
     ``steer_gain`` [(m/s^2)/rad], the car's C_f / m (:meth:`Bicycle3DoFParams.from_vehicle
     <flatfree.models.bicycle3dof.Bicycle3DoFParams.from_vehicle>`), is then quoted beside the
     tuned cars' (the natural-output design). Nothing for the flatness controller (its model is
-    the car's own) or for an alpha_lat of the user's own (set, and no tuned car's). Said by
-    every run (:func:`flatfree.simulation.prepare`)."""
+    the car's own) or for an alpha_lat of the user's own (set to a value no other tuned car
+    has, with either estimator). Said by every run (:func:`flatfree.simulation.prepare`)."""
     from flatfree.controllers.vehicle import settings_from_mapping
 
     tunings = _TUNINGS.get(controller)
@@ -237,7 +239,7 @@ def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
     default = settings_from_mapping(controller, {}).alpha_lat
     imu = settings.get("estimator_lat") == "imu"
 
-    def tuned(c: str) -> float:  # the car's tuned alpha_lat for the settings' estimator
+    def tuned(c: str, imu: bool = imu) -> float:  # the car's alpha_lat for the estimator
         t = natural_settings(c, imu=imu) if controller == "mfc-natural" else tunings[c]
         return float(t.get("alpha_lat", default))
 
@@ -248,8 +250,10 @@ def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
         {tuned(car)} if car in tunings else set())
     if alpha in own:
         return
-    owners = [c for c in tunings if c != car and tuned(c) == alpha]
-    if "alpha_lat" in settings and alpha != default and not owners:
+    # the other tuned cars whose tuning holds this value, with either estimator (a scenario's
+    # settings carried to another car, its estimator changed on the way)
+    owners = [c for c in tunings if c != car and alpha in (tuned(c, False), tuned(c, True))]
+    if "alpha_lat" in settings and not owners:
         return  # the user's own value
     whose = (f"at its default {default:g} (the peugeot406's)" if alpha == default
              and "alpha_lat" not in settings else f"at {alpha:g} ({' and '.join(owners)}'s)"
@@ -258,7 +262,8 @@ def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
         tuning = natural_settings(car, imu=imu) if controller == "mfc-natural" else {}
         warn(f"vehicle {str(vehicle)!r}: the {controller} controller's settings leave alpha_lat "
              f"{whose}; {car}'s tuning has {tuned(car):g} "
-             f"(flatfree.scenarios.natural_settings({car!r}), which named_scenario(..., "
+             f"(flatfree.scenarios.natural_settings({car!r}{', imu=True' if imu else ''}), "
+             f"which named_scenario(..., "
              f"vehicle=...) and flatfree run --controller / --vehicle take: {tuning}): set "
              f"controller_settings.alpha_lat = {tuned(car):g}"
              + (", and its other settings as the tuning's" if len(tuning) > 1 else ""))
@@ -341,8 +346,8 @@ def named_scenario(name: str, *, track: str | None = None, seed: int = 0,
         too, whatever it holds) runs the peugeot406's, and its runs warn
         (:func:`warn_if_untuned`). (``scenario.with_(vehicle=...)`` changes the car and
         keeps every other setting, the tuning included: a run that then leaves alpha_lat at
-        its default on another car than the peugeot406 warns too, naming the car's tuned
-        value; an alpha_lat set for one car and kept on another is not checked.) An error
+        its default, or at another tuned car's value, on a car whose tuning has another one
+        warns too, naming the car's tuning; a value of the user's own is not checked.) An error
         for the recorded scenarios, whose car is the recording's, and for a name that is not
         bundled (``ValueError`` here; a path is read at the run).
 
