@@ -40,6 +40,7 @@ import time
 import numpy as np
 from sweep_seeds import parse_settings  # benchmarks/ is the script's folder (sys.path[0])
 
+from flatfree.controllers.vehicle import MfcNaturalSettings
 from flatfree.metrics import compute_metrics
 from flatfree.scenarios import named_scenario
 from flatfree.simulation import simulate
@@ -54,6 +55,7 @@ LOCAL = {"wn_lat": (4.0, 14.0), "zeta_lat": (0.5, 2.0), "wn_lat_speed": (15.0, 4
          "kp_lon": (0.8, 5.0), "alpha_lon": (0.001, 0.005), "correction_max": (1.5, 8.0),
          "denoise_yaw": (0, 200), "window_lat": (50, 250), "window_lon": (40, 250)}
 SPA_S = 50.0
+_DEFAULTS = MfcNaturalSettings()
 BAD_M = 0.04
 
 
@@ -123,8 +125,7 @@ def _step(s: dict, rng: np.random.Generator, scale: float = 0.15) -> dict:
 
 
 def _default(key: str):
-    from flatfree.controllers.vehicle import MfcNaturalSettings
-    return getattr(MfcNaturalSettings(), key)
+    return getattr(_DEFAULTS, key)
 
 
 def main(argv: list[str] | None = None) -> None:

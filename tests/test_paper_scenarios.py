@@ -290,7 +290,7 @@ def test_completion_over_seeds_on_spa(scenario, at_least):
     """Spa, the bundled track where the algebraic natural-output design is least robust, over
     noise seeds 0-29. Measured (2026-11-23, session 21, `paper`'s settings
     flatfree.scenarios.NATURAL_SETTINGS): ``paper`` completes 25 of 30 (seeds 3, 11, 18, 25,
-    28 leave at the chicane, 42.5-48.0 s), 90 of 100 over seeds 0-99 (with the controller's
+    28 leave at the chicane, 42.7-48.0 s), 90 of 100 over seeds 0-99 (with the controller's
     defaults, its settings before: 17 of 30, 62 of 100, and a guard of 14). The guard, 23, is
     the rate over seeds 0-99 less two binomial standard deviations (30 x 0.9 - 2 sqrt(30 x 0.9
     x 0.1) = 23.7; a false failure has a probability of ~0.8 %), as the laps may change seed

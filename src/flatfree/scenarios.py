@@ -148,12 +148,12 @@ REALISTIC_SENSORS = SensorSuite({
 #: bundled tracks over seeds 0-99 against the defaults (benchmarks/README.md "A search for a
 #: more robust `paper` tuning"): Spa completes 90 laps of 100 instead of 62, Catalunya 100
 #: instead of 97, Norisring stays within 2 cm on 94 instead of 90, and the easy tracks' worst
-#: laps move up by up to 1.1 cm (LVMS 3.34 cm, 2.26 before). ``alpha_lat`` is the lever:
-#: the defaults' 30 is 0.46 of the car's C_f / m (65), so the iPD over-corrects and passes
-#: the position noise to the steer 1.7x more than at 52; 52 alone keeps Spa but not its
-#: centimetres (8 cm), and the gains re-matched to it (more damping, a faster loop below 40
-#: m/s, up to 2.5 wn at 16 m/s and below) bring them back. The inertial-unit variant and the
-#: dallara_av21 keep the defaults' gains (:data:`IMU_SETTINGS`,
+#: laps move up by up to 1.1 cm (LVMS 3.34 cm, 2.26 before). ``alpha_lat`` is the lever
+#: (the defaults' 30 is 0.46 of the car's C_f / m, 65; 52 is 0.8): 52 alone keeps Spa but not
+#: its centimetres (8 cm), and the gains re-matched to it (more damping, a faster loop below
+#: 40 m/s, up to 2.5 wn at 16 m/s and below) bring them back. Why it keeps Spa was not found: the
+#: steer command is as noisy as with the defaults (benchmarks/effort_figures.py). The
+#: inertial-unit variant and the dallara_av21 keep the defaults' gains (:data:`IMU_SETTINGS`,
 #: :data:`DALLARA_NATURAL_SETTINGS`): measured worse with these. ``{"yaw_damping": 0.0,
 #: "wn_lat": 4.0, "wn_lat_speed": 0.0, "correction_max": math.inf, "steer_min_speed": 0.0}``
 #: over the defaults is the paper's design (no yaw damper, constant gains, no bound, no hold
@@ -243,21 +243,22 @@ def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
         t = natural_settings(c, imu=imu) if controller == "mfc-natural" else tunings[c]
         return float(t.get("alpha_lat", default))
 
+    def tuned_any(c: str) -> tuple[float, float]:  # with either estimator
+        return tuned(c, False), tuned(c, True)
+
     alpha = settings.get("alpha_lat", default)
     car = bundled_name(vehicle)
-    # every alpha_lat a tuning of this car holds (the peugeot406's base, the defaults, too)
-    own = {tuned(car), default} if car == "peugeot406" else (
-        {tuned(car)} if car in tunings else set())
-    if alpha in own:
-        return
-    # the other tuned cars whose tuning holds this value, with either estimator (a scenario's
-    # settings carried to another car, its estimator changed on the way)
-    owners = [c for c in tunings if c != car and alpha in (tuned(c, False), tuned(c, True))]
+    if car in tunings and alpha in tuned_any(car):
+        return  # one of the car's own tunings (the peugeot406's: 52 algebraic, 30 inertial)
+    # the other tuned cars whose tuning holds this value (a scenario's settings carried to
+    # another car, its estimator changed on the way)
+    owners = [c for c in tunings if c != car and alpha in tuned_any(c)]
     if "alpha_lat" in settings and not owners:
         return  # the user's own value
-    whose = (f"at its default {default:g} (the peugeot406's)" if alpha == default
-             and "alpha_lat" not in settings else f"at {alpha:g} ({' and '.join(owners)}'s)"
-             if owners else f"at {alpha:g}")
+    if "alpha_lat" not in settings:
+        whose = f"at its default {default:g} (the peugeot406's)"
+    else:
+        whose = f"at {alpha:g} ({' and '.join(owners)}'s)"
     if car in tunings:
         tuning = natural_settings(car, imu=imu) if controller == "mfc-natural" else {}
         warn(f"vehicle {str(vehicle)!r}: the {controller} controller's settings leave alpha_lat "
