@@ -1,20 +1,20 @@
 """Speed and memory of the compiled closed loop (issue 7).
 
-Run as a script (``python benchmarks/bench_closed_loop.py``); it prints the figures recorded in
-``benchmarks/README.md`` "Closed loop":
+Run as a script (``python benchmarks/bench_closed_loop.py [--memory]``; ``--memory``: part 3
+alone); it prints the figures recorded in ``benchmarks/README.md`` "Closed loop":
 
 1. a closed-loop 10DoF lap of the default track (``paper-noise-free`` scenario: peugeot406,
    natural-output model-free controller, plant and controller at 1 kHz, log at 100 Hz) after
    JIT warm-up, best of 3: real-time factor of the compiled loop (target >= 1000x on one
    core) and time per plant step, and the real-time factor of ``simulate()`` end to end (the
    preparation included: reference, speed profile, flying-lap start speed, the sensor noise
-   for the whole allotted duration, the errors of the trajectory);
-2. the same with the ``paper`` sensors (noise drawn in advance), with the inertial-unit
+   (drawn a block at a time as the loop needs it), the errors of the trajectory);
+2. the same with the ``paper`` sensors, with the inertial-unit
    estimator (``paper-imu``), for the other two designs, on
    the 3DoF plant (the loop's cost without the 10DoF model) and through the Python door (a
    Python controller returning constants: the cost of one Python call per control step);
 3. peak memory of a 10-minute run logged at 100 Hz (target < 300 MB), of ``paper`` (with the
-   sensors' noise, drawn in advance for the whole run) and ``paper-noise-free``, each measured
+   sensors' noise) and ``paper-noise-free``, each measured
    in a fresh subprocess: the peak resident set size (``VmHWM`` of ``/proc/self/status``; elsewhere
    ``resource.getrusage``, whose ``ru_maxrss`` survives ``execve`` and so starts at the
    *parent's* size: after the timings above it read 214 MB "after the imports" where the
@@ -104,6 +104,12 @@ def _best_rtf(name: str, repeats: int = 3) -> tuple[float, float, str]:
 def main() -> None:
     print(f"machine: {platform.processor() or platform.machine()}, python "
           f"{platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    if "--memory" not in sys.argv:
+        _speed()
+    _memory()
+
+
+def _speed() -> None:
     print("1-2. closed-loop lap of the default track, plant and controller at 1 kHz "
           "(real-time factor of the compiled loop; and of simulate() end to end: the "
           "reference, the sensor noise and the trajectory's errors included)")
@@ -113,6 +119,9 @@ def main() -> None:
         rtf, e2e, status = _best_rtf(name)
         print(f"  {name:28s} {rtf:8.0f}x real time = {1e3 / rtf:5.2f} us per 1 ms step; "
               f"simulate() end to end {e2e:5.0f}x ({status})")
+
+
+def _memory() -> None:
     print("3. peak memory, 10-minute run logged at 100 Hz (fresh process)")
     for name in ("paper", "paper-noise-free"):
         out = subprocess.run([sys.executable, "-c", _MEM_SCRIPT, name], capture_output=True,

@@ -105,7 +105,7 @@ def main() -> None:
           f"({tr.meta['real_time_factor']:.0f}x real time)")
 
     # the same lap through the Python door, logged at every plant step
-    # (the same timing but the log: the run's length fixes the sensor noise drawn in advance)
+    # (the same timing but the log: the same sensor noise)
     fine = sc.with_(timing=dataclasses.replace(sc.timing, log_dt_s=dt))
     rec = _Recorder(fine, prepare(fine).n_steps + 1)
     tr_py = simulate(fine, controller=rec)
@@ -168,10 +168,10 @@ def main() -> None:
 def _end_to_end(sc, tr) -> None:
     """simulate()'s wall time beside the loop's, and its preparation piece by piece (best of
     5 each): the reference, the flying-lap start speed, the whole prepare (and a process's
-    first, the bundled track and car built again: the two alone), the sensor noise drawn for
-    the allotted duration."""
+    first, the bundled track and car built again: the two alone), the sensor noise the lap
+    draws (a block at a time, up to the block of its last step)."""
     from flatfree.sensors import SENSOR_CHANNELS
-    from flatfree.simulation import flying_lap_speed, reference_of
+    from flatfree.simulation import _NOISE_BLOCK, flying_lap_speed, reference_of
     from flatfree.tracks import load_track
     from flatfree.tracks.loaders import _bundled_track
     from flatfree.vehicles.params import _preset
@@ -179,6 +179,8 @@ def _end_to_end(sc, tr) -> None:
     prep = prepare(sc)
     ref = prep.reference
     n_ctrl = prep.n_steps // sc.timing.control_every + 1
+    # the control steps the lap ran (the noise up to the end of the block of its last one)
+    n_run = int(round(tr.duration / sc.timing.control_dt_s)) + 1
 
     def best(fn) -> float:
         return best_time(fn, repeats=5)
@@ -203,10 +205,17 @@ def _end_to_end(sc, tr) -> None:
     print(f"    reference (track, profile)       {best(lambda: reference_of(sc)) * 1e3:7.1f} ms")
     fly = best(lambda: flying_lap_speed(ref["s_path"], ref["vx"], prep.vehicle, closed=True))
     print(f"    flying-lap start speed           {fly * 1e3:7.1f} ms")
-    noise = best(lambda: sc.effective_sensors.compile(
-        SENSOR_CHANNELS, sc.timing.control_dt_s, n_ctrl, sc.seed))
-    print(f"  sensor noise                       {noise * 1e3:7.1f} ms "
-          f"({n_ctrl} control steps x {len(SENSOR_CHANNELS)} channels)")
+    def draw():
+        cs = sc.effective_sensors.compile(SENSOR_CHANNELS, sc.timing.control_dt_s, n_ctrl,
+                                          sc.seed, block=_NOISE_BLOCK)
+        while cs.first_step + cs.noise.shape[1] < n_run:
+            cs.next_block()
+        return cs.first_step + cs.noise.shape[1]
+
+    drawn = draw()
+    print(f"  sensor noise                       {best(draw) * 1e3:7.1f} ms "
+          f"({drawn} control steps x {len(SENSOR_CHANNELS)} channels, in blocks of "
+          f"{_NOISE_BLOCK}; the allotted duration has {n_ctrl})")
 
 
 if __name__ == "__main__":

@@ -305,7 +305,7 @@ def test_run_too_long_for_the_memory_is_a_clean_error(runner):
                            "controller_settings.schedule=time", "--json"])
     assert res.exit_code == 2 and res.stdout == ""
     msg = " ".join(res.stderr.split())
-    assert "timing.duration_s = 1e+09 s" in msg and "do not fit in memory" in msg
+    assert "timing.duration_s = 1e+09 s" in msg and "does not fit in memory" in msg
     assert "1 lap of Norisring" in msg and "reference.laps" in msg
     assert "Traceback" not in res.output
 

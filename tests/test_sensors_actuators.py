@@ -21,7 +21,7 @@ def _measure(cs, truth):
     out = np.empty(truth.shape)
     row = np.empty(truth.shape[1])
     for k in range(truth.shape[0]):
-        sense_step(k, truth[k], cs.table, cs.noise, cs.history, cs.held, row)
+        sense_step(k, truth[k], cs.table, cs.noise, k - cs.first_step, cs.history, cs.held, row)
         out[k] = row
     return out
 
@@ -308,11 +308,14 @@ def test_second_order_drift_is_stationary_with_its_exact_autocorrelation():
     drawn too), and
     the lag-m correlations are the closed form: standard errors ~ 1 % of the variance and
     0.007 in a correlation, checked within 5 % / 0.03."""
-    from flatfree.sensors import _gauss_markov2
+    from flatfree.sensors import _NoiseDraw
 
     std, phi, n_seq, n = 0.02, 0.3, 20_000, 6
     rng = np.random.default_rng(11)
-    seqs = np.array([_gauss_markov2(rng, n, std, phi) for _ in range(n_seq)])
+    ch = SensorChannel(markov_std=std, markov_tau_s=1.0, markov_order=2)
+    seqs = np.zeros((n_seq, n))
+    for row in seqs:  # the drift's first n samples, from its stationary start
+        _NoiseDraw._drift(ch, rng, phi, None, n, row)
     var = seqs.var(axis=0)
     assert var[0] == pytest.approx(std**2, rel=0.05)
     assert var[-1] == pytest.approx(std**2, rel=0.05)
@@ -430,3 +433,88 @@ def test_a_delay_or_rate_the_control_clock_cannot_keep_is_said():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         whole.compile(SENSOR_CHANNELS, 0.002, 10, 0)  # 2 periods each
+
+
+def _blocks(suite, names, n, seed, block):
+    """The error sequences of ``n`` steps drawn ``block`` at a time (next_block), joined."""
+    cs = suite.compile(names, 0.001, n, seed, block=block)
+    parts, first = [cs.noise.copy()], [cs.first_step]
+    while sum(p.shape[1] for p in parts) < n:
+        first.append(cs.next_block())
+        parts.append(cs.noise.copy())
+    assert first == [i * min(block, n) for i in range(len(parts))]
+    return np.concatenate(parts, axis=1)[:, :n]
+
+
+@pytest.mark.parametrize("block", [1, 7, 500, 4096, 10_000])
+def test_noise_drawn_in_blocks_is_the_noise_drawn_whole(block):
+    """SensorSuite.compile(block=...) and CompiledSensors.next_block: each channel's white
+    noise and first- and second-order drift go on from block to block (the streams and the
+    drifts' filter states carried), the sequences of compile() without a block bit for bit;
+    a block longer than the run holds the whole run."""
+    names = ("x", "y", "psi", "vx", "vy", "r", "ax", "ay")
+    suite = SensorSuite({
+        "x": SensorChannel(noise_std=0.001, markov_std=0.01, markov_tau_s=1.0, markov_order=2),
+        "y": SensorChannel(markov_std=0.02, markov_tau_s=0.05, markov_order=2),
+        "psi": SensorChannel(noise_std=0.002, markov_std=0.01, markov_tau_s=0.3),
+        "vx": SensorChannel(markov_std=0.1, markov_tau_s=2.0),
+        "r": SensorChannel(noise_std=0.003, bias=0.1, delay_s=0.002, rate_hz=250.0),
+    })
+    n = 9_000
+    whole = suite.compile(names, 0.001, n, seed=11)
+    assert whole.first_step == 0
+    np.testing.assert_array_equal(_blocks(suite, names, n, 11, block), whole.noise)
+    # measured through sense_step, delays and holds across the blocks' ends included
+    truth = np.random.default_rng(2).standard_normal((n, len(names)))
+    cs = suite.compile(names, 0.001, n, seed=11, block=block)
+    out = np.empty(truth.shape)
+    for k in range(n):
+        if k - cs.first_step == cs.noise.shape[1]:
+            cs.next_block()
+        sense_step(k, truth[k], cs.table, cs.noise, k - cs.first_step, cs.history, cs.held,
+                   out[k])
+    np.testing.assert_array_equal(out, _measure(whole, truth))
+
+
+def test_a_block_is_a_whole_number_of_steps_and_whole_sensors_have_no_next_block():
+    suite = SensorSuite({"x": SensorChannel(noise_std=0.1)})
+    for bad in (0, -3, 2.5, True, "8"):
+        with pytest.raises(ValueError, match=rf"^block = {re.escape(repr(bad))}: expected a "
+                                             r"whole number of control steps >= 1"):
+            suite.compile(("x",), 0.001, 10, 0, block=bad)
+    with pytest.raises(ValueError, match="compiled whole"):
+        suite.compile(("x",), 0.001, 10, 0).next_block()
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_the_drift_recursions_are_scipys_lfilter_bit_for_bit(order):
+    """The drifts' compiled recursions (sensors._drift1, _drift2) give the numbers of
+    scipy.signal.lfilter on the documented draw (the module's "drift": the stationary start,
+    then the driving noise; order 2 two first-order stages from their stationary state), bit
+    for bit, over a long run and for a fast and a slow correlation time."""
+    from scipy.signal import lfilter
+
+    from flatfree.sensors import channel_streams
+
+    n, dt, std = 50_000, 0.001, 0.02
+    for tau in (0.004, 30.0):
+        phi = math.exp(-dt / tau)
+        suite = SensorSuite({"y": SensorChannel(markov_std=std, markov_tau_s=tau,
+                                                markov_order=order)})
+        got = suite.compile(("y",), dt, n, seed=9).noise[0]
+        _, rng = channel_streams(9, "y")
+        if order == 1:
+            w = rng.standard_normal(n)
+            w[0] *= std
+            w[1:] *= std * math.sqrt(1.0 - phi * phi)
+            want = lfilter([1.0], [1.0, -phi], w)
+        else:
+            q = 1.0 - phi * phi
+            var_s, cov_ys, var_y = 1.0 / q, 1.0 / (q * q), (1.0 + phi * phi) / (q * q * q)
+            z = rng.standard_normal(n + 2)
+            s_m = z[0] * math.sqrt(var_s)
+            y_m = (cov_ys / var_s) * s_m + z[1] * math.sqrt(var_y - cov_ys * cov_ys / var_s)
+            scale = std / math.sqrt(var_y)
+            s1, _ = lfilter([1.0], [1.0, -phi], z[2:] * scale, zi=[phi * s_m * scale])
+            want, _ = lfilter([1.0], [1.0, -phi], s1, zi=[phi * y_m * scale])
+        np.testing.assert_array_equal(got, want)

@@ -23,7 +23,7 @@ from flatfree.metrics import compute_metrics
 from flatfree.scenario import Fault, FrictionPatch, ReferenceSpec, RoadSpec, Scenario, Timing
 from flatfree.scenarios import REALISTIC_SENSORS
 from flatfree.simulation import simulate
-from flatfree.trajectory import Status
+from flatfree.trajectory import Status, Trajectory
 
 # the paper scenarios' sensors (flatfree.scenarios documents each sigma; the first version here
 # had 1 cm of white position noise at 1 kHz, far noisier than an RTK-INS's sample jitter)
@@ -164,8 +164,8 @@ def test_a_run_too_long_for_the_memory_is_a_value_error():
     sc = sc.with_(controller_settings={**sc.controller_settings, "schedule": "time"},
                   timing=Timing(duration_s=1e9))
     with pytest.raises(RunTooLongError, match=r"^timing\.duration_s = 1e\+09 s: the run's "
-                                              r"sensor noise and log, allocated for the whole "
-                                              r"duration, do not fit in memory \(.+\)$"):
+                                              r"log, allocated for the whole duration, does "
+                                              r"not fit in memory \(.+\)$"):
         simulate(sc)
 
 
@@ -1087,7 +1087,7 @@ def test_natural_output_controller_overflow_raises_and_nan_measurements_do_not()
 
 
 def test_a_track_run_longer_than_its_path_is_capped_near_the_path_end():
-    """The loop allocates its log and sensor noise for the whole duration: a track run, which
+    """The loop allocates its log for the whole duration: a track run, which
     ends where its path ends, is capped at twice its default horizon (1.5 x the reference's
     duration + 5 s); a shorter request is kept, and any on the clock schedule."""
     from flatfree.scenarios import named_scenario
@@ -1193,3 +1193,53 @@ def test_the_flat_output_designs_follow_an_offset_line(name):
     after = tr.time >= sc.timing.startup_s
     assert abs(np.mean(tr["lateral_error"][after])) < 0.02
     assert abs(np.mean(tr["e_y"][after]) - 0.5) < 0.02  # the path is 0.5 m to the right
+
+
+@pytest.mark.parametrize("block", [997, 4096])
+def test_the_noise_drawn_a_block_at_a_time_gives_the_run_of_the_noise_drawn_whole(
+        monkeypatch, block):
+    """simulation._NOISE_BLOCK: the loop stops where a block of sensor noise ends and goes on
+    from the same step with the next block; the trajectory is the one of the whole run's
+    noise drawn at once, bit for bit (every signal and the status), through the compiled door
+    and through a Python controller's pauses (a block's end between two of them), with
+    sensors that drift and are delayed and held."""
+    from flatfree import simulation
+    from flatfree.sensors import SensorChannel, SensorSuite
+
+    sc = _scenario(timing=Timing(duration_s=6.0, log_dt_s=0.01))
+    sensors = SensorSuite({**sc.sensors.channels,
+                           "x": SensorChannel(noise_std=0.002, markov_std=0.01,
+                                              markov_tau_s=1.0, markov_order=2),
+                           "r": SensorChannel(noise_std=0.0017, delay_s=0.003, rate_hz=250.0)})
+    sc = sc.with_(sensors=sensors)
+    monkeypatch.setattr(simulation, "_NOISE_BLOCK", 10**9)
+    whole = simulate(sc)
+    whole_py = simulate(sc.with_(timing=Timing(duration_s=1.5, log_dt_s=0.01)),
+                        controller=_NaturalDoor(sc))
+    monkeypatch.setattr(simulation, "_NOISE_BLOCK", block)
+    blocks = simulate(sc)
+    assert whole.status is blocks.status and whole.duration == blocks.duration > 5.9
+    for k in whole:
+        np.testing.assert_array_equal(blocks[k], whole[k], err_msg=k)
+    py = simulate(sc.with_(timing=Timing(duration_s=1.5, log_dt_s=0.01)),
+                  controller=_NaturalDoor(sc))
+    for k in whole_py:
+        np.testing.assert_array_equal(py[k], whole_py[k], err_msg=k)
+
+
+def test_a_runs_signals_are_contiguous_read_only_and_its_own():
+    """simulate hands its log's columns to the Trajectory without a copy
+    (trajectory._adopting): each signal is a contiguous float64 array that cannot be written;
+    two runs share nothing; a Trajectory made by a user still copies what it is given."""
+    sc = _scenario(timing=Timing(duration_s=0.5, log_dt_s=0.01))
+    a, b = simulate(sc), simulate(sc)
+    for k in ("time", *a):
+        assert a[k].flags.c_contiguous and a[k].dtype == np.float64, k
+        assert not a[k].flags.writeable, k
+        assert not np.shares_memory(a[k], b[k]), k
+        with pytest.raises(ValueError, match="read-only"):
+            a[k][0] = 1.0
+    given = np.arange(3.0)
+    tr = Trajectory(time=given, signals={"v": given}, units={"v": "m"})
+    given[0] = 9.0
+    assert tr.time[0] == 0.0 and tr["v"][0] == 0.0

@@ -137,7 +137,7 @@ def test_sensors_equal_the_modulo_form(delays):
     out_a, out_b = np.empty(3), np.empty(3)
     for k in range(200):
         truth = rng.standard_normal(3)
-        sense_step(k, truth, comp.table, comp.noise, comp.history, comp.held, out_a)
+        sense_step(k, truth, comp.table, comp.noise, k, comp.history, comp.held, out_a)
         _sense_plain(k, truth, comp.table, comp.noise, hist_b, held_b, out_b)
         np.testing.assert_array_equal(out_a, out_b)
 

@@ -254,7 +254,7 @@ class Timing:
     run ends where its reference path ends, so None gives it 1.5 times the reference's
     duration plus 5 s (a car slower than the profile still finishes), and a longer
     ``duration_s`` is capped at twice that horizon (:func:`flatfree.simulation.prepare`; the
-    loop allocates its log and sensor noise for the whole duration). On the clock schedule
+    loop allocates its log for the whole duration). On the clock schedule
     (``schedule = "time"``) None is the reference's duration and a ``duration_s`` is kept.
 
     The model-free controllers' estimator windows and denoisers are counts of samples, tuned

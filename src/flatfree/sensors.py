@@ -12,9 +12,10 @@ names to channels. The simulation evaluates them at the controller's rate throug
   (``period_steps`` controller periods apart, rounded as the delay, at least 1: 400 Hz at a 1 kHz
   controller samples every 2 steps); a rate of ``None`` means every controller step. A sample
   that is not finite is not held (:func:`sense_step`).
-- **noise**: additive Gaussian, standard deviation ``noise_std``, drawn in advance for the whole
-  run: the same seed gives bit-identical runs, different seeds different noise. Noise is drawn
-  once per sample (held between samples).
+- **noise**: additive Gaussian, standard deviation ``noise_std``, drawn ahead of the loop, for
+  the whole run or block after block (:meth:`SensorSuite.compile`, ``block``; the same
+  sequences bit for bit): the same seed gives bit-identical runs, different seeds different
+  noise. Noise is drawn once per sample (held between samples).
 - **streams** (:func:`channel_streams`): each channel draws from streams of its own, keyed by
   the seed and the channel's name (children of ``numpy.random.SeedSequence(seed)``), one for
   its white noise and one for its drift, each drawn in time order. So for a given seed a
@@ -122,18 +123,123 @@ class SensorChannel:
 
 @dataclass(frozen=True, slots=True)
 class CompiledSensors:
-    """Arrays for :func:`sense_step`: parameters, pre-drawn noise and the state to mutate."""
+    """Arrays for :func:`sense_step`: parameters, drawn noise and the state to mutate.
+
+    ``noise[:, j]`` is the error of control step ``first_step + j``. Compiled whole
+    (:meth:`SensorSuite.compile` without ``block``) it holds the run's every step and
+    ``first_step`` stays 0; compiled in blocks it holds one block, and :meth:`next_block`
+    draws the next one in its place, continuing each channel's streams: the same sequences as
+    drawn whole, bit for bit (tests/test_sensors_actuators.py).
+    """
 
     names: tuple[str, ...]
     table: np.ndarray  # (n_channels, 4): 1 (noise scale), bias, period_steps, delay_steps
-    noise: np.ndarray  # (n_channels, n_steps) error sequences in the signals' units
+    noise: np.ndarray  # (n_channels, n_columns) error sequences in the signals' units
     history: np.ndarray  # (n_channels, max_delay + 1) ring buffer of true values
     held: np.ndarray  # (n_channels,) last measured value
+    _draw: _NoiseDraw | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def first_step(self) -> int:
+        """The control step of ``noise[:, 0]``."""
+        return 0 if self._draw is None else self._draw.first_step
+
+    def next_block(self) -> int:
+        """Draw the next block of the error sequences into ``noise``; return its first
+        control step. Only for sensors compiled in blocks (``block`` given)."""
+        if self._draw is None:
+            raise ValueError("next_block: these sensors were compiled whole (block = None)")
+        return self._draw.next(self.noise)
 
     def reset(self) -> None:
-        """Clear the state (history and held values) for a new run."""
+        """Clear the state (history and held values) for a new run (the noise drawn stays)."""
         self.history[:] = np.nan
         self.held[:] = np.nan
+
+
+@njit(**no_refcount({"cache": True}))
+def _drift1(w, start, c0, c, phi, z, out):
+    """Add a first-order Gauss-Markov sequence to ``out`` (module docstring, "drift"):
+    ``y[j] = a_j w[j] + z_j``, ``z_(j+1) = phi y[j]``, the scale ``a_j`` ``c0`` at the
+    sequence's first sample (``start``) and ``c`` after it; returns the last ``z``.
+    ``scipy.signal.lfilter([1], [1, -phi], a w)`` bit for bit, block after block."""
+    for j in range(w.shape[0]):
+        y = w[j] * (c0 if start and j == 0 else c) + z
+        z = phi * y
+        out[j] = out[j] + y
+    return z
+
+
+@njit(**no_refcount({"cache": True}))
+def _drift2(w, scale, phi, zs, zy, out):
+    """Add a second-order Gauss-Markov sequence to ``out``: two first-order stages in cascade
+    (:func:`_drift1` with ``c0 = c = scale``, then its output through the same stage) from
+    their states ``zs``, ``zy``; returns the last states."""
+    for j in range(w.shape[0]):
+        s = w[j] * scale + zs
+        zs = phi * s
+        y = s + zy
+        zy = phi * y
+        out[j] = out[j] + y
+    return zs, zy
+
+
+class _NoiseDraw:
+    """The channels' error sequences, drawn block after block in time order
+    (:class:`CompiledSensors`): each channel's streams (:func:`channel_streams`) and the
+    drifts' filter states, carried from a block to the next."""
+
+    def __init__(self, chans: list[SensorChannel], names: tuple[str, ...], seed: int,
+                 dt_control: float) -> None:
+        self.first_step = 0
+        self._drawn = 0  # control steps drawn so far
+        self._rows = []
+        for i, ch in enumerate(chans):
+            if ch.noise_std == 0.0 and ch.markov_std == 0.0:
+                continue  # nothing drawn: the other channels' streams are their own anyway
+            white, drift = channel_streams(seed, names[i])
+            phi = (math.exp(-dt_control / ch.markov_tau_s) if ch.markov_std > 0.0 else 0.0)
+            self._rows.append([i, ch, white, drift, phi, None])  # None: no drift state yet
+
+    def next(self, noise: np.ndarray) -> int:
+        """Draw the next ``noise.shape[1]`` steps into ``noise``; return their first step."""
+        m = noise.shape[1]
+        self.first_step = self._drawn
+        for row in self._rows:
+            i, ch, white, drift, phi, state = row
+            out = noise[i]
+            if ch.noise_std > 0.0:
+                white.standard_normal(out=out)
+                out *= ch.noise_std
+            else:
+                out[:] = 0.0
+            if ch.markov_std > 0.0:
+                row[5] = self._drift(ch, drift, phi, state, m, out)
+        self._drawn += m
+        return self.first_step
+
+    @staticmethod
+    def _drift(ch: SensorChannel, rng: np.random.Generator, phi: float, state, m: int,
+               out: np.ndarray):
+        """Add the drift's next ``m`` samples to ``out``; return its state after them."""
+        std = ch.markov_std
+        if ch.markov_order == 1:
+            # b[0] from the stationary distribution, then the recursion's driving noise
+            z = _drift1(rng.standard_normal(m), state is None, std,
+                        std * math.sqrt(1.0 - phi * phi), phi,
+                        0.0 if state is None else state, out)
+            return z
+        q = 1.0 - phi * phi
+        var_s, cov_ys, var_y = 1.0 / q, 1.0 / (q * q), (1.0 + phi * phi) / (q * q * q)
+        scale = std / math.sqrt(var_y)
+        if state is None:
+            # first the state (s, y) at k = -1, s from its marginal and y from its law given
+            # s, then the driving noise
+            z0, z1 = rng.standard_normal(2)
+            s_m = z0 * math.sqrt(var_s)
+            y_m = (cov_ys / var_s) * s_m + z1 * math.sqrt(var_y - cov_ys * cov_ys / var_s)
+            state = (phi * s_m * scale, phi * y_m * scale)
+        return _drift2(rng.standard_normal(m), scale, phi, state[0], state[1], out)
 
 
 @dataclass(frozen=True, slots=True)
@@ -165,8 +271,13 @@ class SensorSuite:
         })
 
     def compile(self, names: tuple[str, ...], dt_control: float, n_steps: int,
-                seed: int) -> CompiledSensors:
+                seed: int, *, block: int | None = None) -> CompiledSensors:
         """Arrays for the compiled loop, channels in the order of ``names``.
+
+        ``block`` None: the noise of all ``n_steps`` control steps, drawn now. A block of
+        control steps: the noise of the first ``min(block, n_steps)`` steps, and
+        :meth:`CompiledSensors.next_block` draws the next ones in their place (the same
+        sequences; a long run's noise then takes a block's memory, not the run's).
 
         A name without a channel is measured perfectly (no noise, bias, delay; every step).
         Each channel's error comes from its own streams (:func:`channel_streams`), so it does
@@ -204,24 +315,21 @@ class SensorSuite:
             warn(f"sensors at a control period of {dt_control:g} s: {'; '.join(rounded)} "
                  "(rounded to whole control periods)")
         n_steps = int(n_steps)
+        if block is not None:
+            if isinstance(block, bool) or not isinstance(block, (int, np.integer)) or block < 1:
+                raise ValueError(f"block = {block!r}: expected a whole number of control "
+                                 "steps >= 1 (or None)")
+            n_steps = min(n_steps, int(block))
         # a channel's sequence is a row: drawn in place (a column of a (n_steps, n) table was a
         # strided copy of every draw: ~15 -> 12.2 ms for a Norisring run's noise)
         noise = np.zeros((n, n_steps))
-        for i, ch in enumerate(chans):
-            if ch.noise_std == 0.0 and ch.markov_std == 0.0:
-                continue  # nothing drawn: the other channels' streams are their own anyway
-            white, drift = channel_streams(seed, names[i])
-            if ch.noise_std > 0.0:
-                white.standard_normal(out=noise[i])
-                noise[i] *= ch.noise_std
-            if ch.markov_std > 0.0:
-                make = _gauss_markov if ch.markov_order == 1 else _gauss_markov2
-                noise[i] += make(drift, n_steps, ch.markov_std,
-                                 math.exp(-dt_control / ch.markov_tau_s))
+        draw = _NoiseDraw(chans, tuple(names), seed, dt_control)
+        draw.next(noise)
         max_delay = int(table[:, _DELAY].max()) if n else 0
         history = np.full((n, max_delay + 1), np.nan)
         held = np.full(n, np.nan)
-        return CompiledSensors(tuple(names), table, noise, history, held)
+        return CompiledSensors(tuple(names), table, noise, history, held,
+                               None if block is None else draw)
 
 
 def channel_streams(seed: int, name: str) -> tuple[np.random.Generator, np.random.Generator]:
@@ -231,7 +339,8 @@ def channel_streams(seed: int, name: str) -> tuple[np.random.Generator, np.rando
     and ``(crc32(name), 1)`` (CRC-32 of the UTF-8 name: the same on every platform and
     Python version, unlike ``hash``), each a PCG64 generator. :meth:`SensorSuite.compile`
     draws a channel's white noise as ``white.standard_normal(n_steps)`` times ``noise_std``
-    and its drift's normals from ``drift`` (:func:`_gauss_markov`, :func:`_gauss_markov2`).
+    and its drift's normals from ``drift`` (:func:`_drift1`, :func:`_drift2`), block after
+    block in time order.
     """
     key = zlib.crc32(name.encode())
     return tuple(  # type: ignore[return-value]
@@ -239,42 +348,12 @@ def channel_streams(seed: int, name: str) -> tuple[np.random.Generator, np.rando
         for part in (_WHITE, _DRIFT))
 
 
-def _gauss_markov(rng: np.random.Generator, n: int, std: float, phi: float) -> np.ndarray:
-    """A stationary first-order Gauss-Markov sequence (module docstring), via lfilter."""
-    from scipy.signal import lfilter
-
-    # drawn in time order (a shorter run's sequence is the start of a longer one's)
-    if n == 0:
-        return np.zeros(0)
-    w = rng.standard_normal(n)
-    w[0] *= std  # b[0] from the stationary distribution
-    w[1:] *= std * math.sqrt(1.0 - phi * phi)
-    return lfilter([1.0], [1.0, -phi], w)
-
-
-def _gauss_markov2(rng: np.random.Generator, n: int, std: float, phi: float) -> np.ndarray:
-    """A stationary second-order Gauss-Markov sequence (module docstring): two first-order
-    stages in cascade, their state before the first sample drawn from its stationary
-    distribution, scaled to the standard deviation ``std``."""
-    from scipy.signal import lfilter
-
-    q = 1.0 - phi * phi
-    var_s, cov_ys, var_y = 1.0 / q, 1.0 / (q * q), (1.0 + phi * phi) / (q * q * q)
-    # drawn in time order: first the state (s, y) at k = -1, s from its marginal and y from
-    # its law given s, then the driving noise
-    z = rng.standard_normal(n + 2)
-    s_m = z[0] * math.sqrt(var_s)
-    y_m = (cov_ys / var_s) * s_m + z[1] * math.sqrt(var_y - cov_ys * cov_ys / var_s)
-    scale = std / math.sqrt(var_y)
-    w = z[2:] * scale
-    s1, _ = lfilter([1.0], [1.0, -phi], w, zi=[phi * s_m * scale])
-    y, _ = lfilter([1.0], [1.0, -phi], s1, zi=[phi * y_m * scale])
-    return y
-
-
 @njit(**no_refcount({"cache": True}))
-def sense_step(k, truth, table, noise, history, held, out):
+def sense_step(k, truth, table, noise, kn, history, held, out):
     """Measure the true values ``truth`` at controller step ``k`` into ``out``.
+
+    ``noise[:, kn]`` is the error of step ``k`` (``kn = k - first_step`` of
+    :class:`CompiledSensors`: ``k`` itself for sensors compiled whole).
 
     Mutates ``history`` (ring buffer of true values) and ``held`` (sample-and-hold).
     A non-finite true value propagates to its measurement (a fault the controller must handle);
@@ -299,5 +378,5 @@ def sense_step(k, truth, table, noise, history, held, out):
             delayed = history[i, 0]  # not enough history yet: the first value
         period = int(table[i, 2])
         if period == 1 or k % period == 0 or not math.isfinite(held[i]):
-            held[i] = delayed + table[i, 1] + table[i, 0] * noise[i, k]
+            held[i] = delayed + table[i, 1] + table[i, 0] * noise[i, kn]
         out[i] = held[i]

@@ -112,7 +112,7 @@ from flatfree.tracks import (
     sample_reference,
 )
 from flatfree.tracks.speed import _drive_array, _power_cap
-from flatfree.trajectory import Status, Trajectory
+from flatfree.trajectory import Status, Trajectory, _adopting
 from flatfree.units import G
 from flatfree.vehicles import VehicleParams
 
@@ -250,6 +250,11 @@ _SKIP_EDGE_M = 0.25
 _SKIP_END_M = 5.0
 _SKIP_KAPPA_EY = 0.5
 _PAUSE = 3  # status code: a Python controller must give the commands for step k
+# Control steps of sensor noise drawn at a time (sensors.SensorSuite.compile, block): 8 s at
+# 1 kHz, 0.5 MB for the 8 channels; the whole run's noise was 38 MB for 10 minutes
+# (benchmarks/README.md "The sensor noise a block at a time"). The loop stops at a block's end
+# and goes on from the same step: the trajectory is the same bit for bit.
+_NOISE_BLOCK = 8192
 
 
 @njit(**_JIT_LOOP)
@@ -305,7 +310,7 @@ def _loop_scratch(n: int) -> tuple:
 def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
                  kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw,
                  cref_table, g, closed, sched_path, st_table, s_end,
-                 sens_table, noise, hist, held, act_p, act_s,
+                 sens_table, noise, noise_k0, hist, held, act_p, act_s,
                  mu_base, patches, bank_table, nan_faults, steer_faults,
                  log, log_every, half_width, k0, ls, meas, crow, scratch):
     """The whole closed loop (module docstring). Returns (status code, step, rows logged).
@@ -315,7 +320,11 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     work arrays (:func:`_loop_scratch`). With ``kind`` = ``KIND.PYTHON`` the loop returns
     ``_PAUSE`` at every control step with ``meas`` and ``crow`` filled; the caller writes the
     commands into ``ls``, sets ``ls[_LS_RESUME]`` and calls again with ``k0`` = the returned
-    step.
+    step. The loop runs the plant steps ``k0`` to ``n_steps - 1``; ``noise`` holds the sensor
+    noise of the control steps from ``noise_k0`` on (one block, :data:`_NOISE_BLOCK`), and the
+    caller stops the loop where the block ends (``n_steps``; status 0, step ``n_steps``),
+    draws the next block and calls again with ``k0`` = that step: a loop started at any step
+    goes on as if it had not stopped (its state is in ``ls`` and the arrays).
 
     Projections. The true pose's Frenet coordinates serve the logged row, the two checks that
     end a run (the road's edge, the path's end), and the friction patches and bank, looked up
@@ -460,7 +469,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             r_m = 0.5 * (truth[5] + r_p)
             truth[6] = (truth[3] - vx_p) * inv_dt - r_m * 0.5 * (truth[4] + vy_p)
             truth[7] = (truth[4] - vy_p) * inv_dt + r_m * 0.5 * (truth[3] + vx_p)
-            sense_step(kc, truth, sens_table, noise, hist, held, meas_s)
+            sense_step(kc, truth, sens_table, noise, kc - noise_k0, hist, held, meas_s)
             for f in range(nan_faults.shape[0]):
                 if nan_faults[f, 1] <= t < nan_faults[f, 2]:
                     meas_s[int(nan_faults[f, 0])] = math.nan
@@ -961,10 +970,9 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     if schedule == "path":
         # the run ends at the end of the path: by default leave time for a car slower than the
         # profile; a longer requested duration is capped at twice that horizon, far beyond any
-        # car that follows the profile (the loop's sensor noise, 8 floats a control step, and
-        # its log, len(LOG) = 27 floats a logged sample, are allocated for the whole duration:
-        # those two alone are 0.31 GB for an hour at 1 kHz control and a 100 Hz log, 3.6e6 x 8
-        # + 3.6e5 x 27 doubles; the whole run allocates more, its reference and trajectory too)
+        # car that follows the profile (the loop's log, len(LOG) = 27 floats a logged sample,
+        # is allocated for the whole duration: 78 MB for an hour logged at 100 Hz, 3.6e5 x 27
+        # doubles; the reference and the controller's table grow with the duration too)
         horizon = 1.5 * ref.duration + 5.0
         duration = horizon if sc.timing.duration_s is None else min(sc.timing.duration_s,
                                                                      2.0 * horizon)
@@ -1101,7 +1109,7 @@ def _python_command(controller, t: float, out) -> tuple[float, float]:
 
 
 class RunTooLongError(ValueError):
-    """A run whose sensor noise and log, allocated for its whole duration, do not fit in memory
+    """A run whose log, allocated for its whole duration, does not fit in memory
     (:func:`simulate`; the message names ``timing.duration_s``)."""
 
 
@@ -1145,7 +1153,7 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
     ------
     ValueError
         A bad scenario or controller (above); :class:`RunTooLongError` (a ValueError) when the
-        run's sensor noise and log, allocated for its whole duration, do not fit in memory.
+        run's log, allocated for its whole duration, does not fit in memory.
     """
     sc = _as_scenario(sc)
     if controller is not None and not callable(getattr(controller, "step", None)):
@@ -1186,15 +1194,18 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     tpr = vehicle.tire_rear.to_array()
     n_ctrl = prep.n_steps // timing.control_every + 1
     n_log = prep.n_steps // timing.log_every + 1
-    try:  # the sensor noise and the log of the whole duration
-        sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl,
-                                            sc.seed)
-        log = np.full((n_log, len(LOG)), np.nan)
+    # the sensor noise a block at a time (the loop stops at a block's end for the next one)
+    sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl, sc.seed,
+                                        block=_NOISE_BLOCK)
+    try:  # the log of the whole duration
+        # column by column (order "F"): each signal's rows are contiguous, and the trajectory
+        # takes them without a copy (trajectory._adopting)
+        log = np.full((n_log, len(LOG)), np.nan, order="F")
     except MemoryError as exc:
         d = timing.duration_s
         d = "the run" if d is None else f"timing.duration_s = {d:g} s"
-        raise RunTooLongError(f"{d}: the run's sensor noise and log, allocated for the whole "
-                              f"duration, do not fit in memory ({exc})") from None
+        raise RunTooLongError(f"{d}: the run's log, allocated for the whole duration, does "
+                              f"not fit in memory ({exc})") from None
     act_p = prep.actuators.to_array(timing.plant_dt_s)
     act_s = actuator_state(prep.actuators, timing.plant_dt_s, steer0=prep.steer0)
     patches = np.array([[p.s_start_m, p.s_end_m, p.mu] for p in sc.road.patches],
@@ -1223,25 +1234,33 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     if controller is not None and callable(getattr(controller, "reset", None)):
         controller.reset()
 
-    def loop_args(k0: int) -> tuple:
+    def loop_args(k0: int, k_end: int) -> tuple:
         return (plant, x, mp, tpf, tpr, bp, vehicle.lf, vehicle.lr, timing.plant_dt_s,
-                prep.n_steps, timing.control_every, ctrl.kind, ctrl.p_lon, ctrl.s_lon,
+                k_end, timing.control_every, ctrl.kind, ctrl.p_lon, ctrl.s_lon,
                 ctrl.p_lat, ctrl.s_lat, ctrl.coef, ctrl.f_lon, ctrl.f_lat, ctrl.f_yaw, cref,
                 ref.path.geometry, ref.path.closed, prep.path_schedule, st_table, s_end,
-                sens.table, sens.noise, sens.history, sens.held, act_p, act_s,
+                sens.table, sens.noise, sens.first_step, sens.history, sens.held, act_p, act_s,
                 sc.road.mu, patches, bank_table, nan_f, steer_f, log, timing.log_every,
                 DEFAULT_HALF_WIDTH_M, k0, ls, meas, crow, scratch)
 
     # compile the loop (or load it from numba's cache) before the clock starts: the real-time
     # factor is the loop's, not the compiler's (a fresh clone's first run compiles for seconds)
     t_compile = time.perf_counter()
-    _closed_loop.compile(tuple(numba.typeof(a) for a in loop_args(0)))
+    _closed_loop.compile(tuple(numba.typeof(a) for a in loop_args(0, prep.n_steps)))
     compile_s = time.perf_counter() - t_compile
     t0 = time.perf_counter()
     k0 = 0
     n_calls = 0
+    ce = timing.control_every
     while True:
-        code, k_stop, rows = _closed_loop(*loop_args(k0))
+        # the plant steps whose control steps have their noise drawn (the whole run's end at
+        # the last block)
+        k_end = min(prep.n_steps, (sens.first_step + sens.noise.shape[1]) * ce)
+        code, k_stop, rows = _closed_loop(*loop_args(k0, k_end))
+        if code == 0 and k_stop == k_end < prep.n_steps:
+            sens.next_block()  # the block's end: the run goes on from step k_stop
+            k0 = k_stop
+            continue
         if code != _PAUSE:
             break
         applied[0] = ls[_LS_TW_APP]
@@ -1307,8 +1326,10 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
             f"{int(ls[_LS_NF_FIRST]) // timing.control_every}); the actuators held the previous "
             "command there (flatfree.actuators.actuate_step). Counts in the trajectory's meta "
             "(n_nonfinite_torque_cmd, n_nonfinite_steer_cmd)", RuntimeWarning)
-    return Trajectory(time=log[:, LOG.T], signals=signals, units=units, status=status,
-                      status_time=None if status is Status.COMPLETED else sim_time, meta=meta)
+    with _adopting():  # the log's columns, which nothing else holds
+        return Trajectory(time=log[:, LOG.T], signals=signals, units=units, status=status,
+                          status_time=None if status is Status.COMPLETED else sim_time,
+                          meta=meta)
 
 
 # keep the TenDoFState import meaningful for readers of the loop's indices

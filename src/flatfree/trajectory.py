@@ -9,10 +9,12 @@ the run ended; a run that left the track or went non-finite does not raise: it e
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import enum
 import math
 from collections.abc import Iterator, Mapping
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -28,6 +30,23 @@ __all__ = ["Status", "Trajectory"]
 def _sidecar(path: Path) -> Path:
     """The JSON file beside a CSV export: ``run.csv`` -> ``run.csv.json``."""
     return path.with_name(path.name + ".json")
+
+
+#: Set inside :func:`_adopting`: the arrays given are held by nobody else (the closed loop's
+#: log, flatfree.simulation), and a Trajectory takes them as they are instead of copying them.
+_ADOPT: ContextVar[bool] = ContextVar("flatfree_trajectory_adopt", default=False)
+
+
+@contextlib.contextmanager
+def _adopting() -> Iterator[None]:
+    """Trajectories made in this block take their float64 arrays without a copy (still made
+    read-only): for a producer that hands over arrays it no longer holds (a 10-minute run's
+    log is 12 MB, and a copy doubles it at the run's peak)."""
+    token = _ADOPT.set(True)
+    try:
+        yield
+    finally:
+        _ADOPT.reset(token)
 
 
 class Status(enum.Enum):
@@ -69,7 +88,8 @@ class Trajectory:
     meta: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        t = np.array(self.time, dtype=np.float64, copy=True)
+        copy = not _ADOPT.get()
+        t = np.array(self.time, dtype=np.float64, copy=copy or None)
         if t.ndim != 1:
             raise ValueError(f"time has shape {t.shape}: expected a 1-D array")
         if t.size > 1 and not np.all(np.diff(t) > 0.0):
@@ -79,7 +99,7 @@ class Trajectory:
         t.flags.writeable = False
         sig: dict[str, np.ndarray] = {}
         for name, values in self.signals.items():
-            a = np.array(values, dtype=np.float64, copy=True)
+            a = np.array(values, dtype=np.float64, copy=copy or None)
             if a.shape != t.shape:
                 raise ValueError(
                     f"signal {name!r} has shape {a.shape}, expected {t.shape} like time"
