@@ -546,29 +546,28 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         if bank_table.shape[0] > 0:  # the road's bank at the CoG (else u[6] stays 0: flat)
             u[6], bank_row = _time_at(bank_table, s, bank_row)
             u[7] = e_psi  # the heading to the road's tangent orients the bank's slope
-        if c_log == 0 and n_log < log.shape[0]:
-            row = log[n_log]
-            row[0] = t
+        if c_log == 0 and n_log < log.shape[1]:
+            log[0, n_log] = t
             for i in range(6):
-                row[1 + i] = truth[i]
-            row[7] = x[_ROLL] if plant == 0 else 0.0
-            row[8] = x[_PITCH] if plant == 0 else 0.0
-            row[9] = s_unw
-            row[10] = e_y
-            row[11] = e_psi
-            row[12] = crow[1]  # the speed reference the controller used
-            row[13] = tw_cmd
-            row[14] = delta_cmd
-            row[15] = tw
-            row[16] = delta
-            row[17] = meas[3]
-            row[18] = me_y
-            row[19] = s_lon[_F_HAT] if kind == 1 or kind == 2 else math.nan
-            row[20] = s_lat[_F_HAT] if kind == 1 or kind == 2 else math.nan
-            row[21] = mu_f
+                log[1 + i, n_log] = truth[i]
+            log[7, n_log] = x[_ROLL] if plant == 0 else 0.0
+            log[8, n_log] = x[_PITCH] if plant == 0 else 0.0
+            log[9, n_log] = s_unw
+            log[10, n_log] = e_y
+            log[11, n_log] = e_psi
+            log[12, n_log] = crow[1]  # the speed reference the controller used
+            log[13, n_log] = tw_cmd
+            log[14, n_log] = delta_cmd
+            log[15, n_log] = tw
+            log[16, n_log] = delta
+            log[17, n_log] = meas[3]
+            log[18, n_log] = me_y
+            log[19, n_log] = s_lon[_F_HAT] if kind == 1 or kind == 2 else math.nan
+            log[20, n_log] = s_lat[_F_HAT] if kind == 1 or kind == 2 else math.nan
+            log[21, n_log] = mu_f
             for i in range(4):
-                row[22 + i] = x[_OMEGA_FL + i] if plant == 0 else math.nan
-            row[26] = t_ref
+                log[22 + i, n_log] = x[_OMEGA_FL + i] if plant == 0 else math.nan
+            log[26, n_log] = t_ref
             n_log += 1
         c_log += 1
         if c_log == log_every:
@@ -941,6 +940,7 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
         lat_p = reference_states_3dof(ref, cf=bic.cf, cr=bic.cr, mass=bic.m, iz=bic.iz,
                                       lf=bic.lf, lr=bic.lr, method="path")
         beta = np.arctan2(lat_p.vy, np.maximum(lat_p.vx, 1e-6))
+        del lat_p  # its other states are not needed (a long run's peak is in this function)
     act = ActuatorParams.from_vehicle(
         vehicle, steer_tau=sc.actuators.steer_tau_s, steer_delay=sc.actuators.steer_delay_s,
         torque_tau=sc.actuators.torque_tau_s, torque_delay=sc.actuators.torque_delay_s)
@@ -1138,7 +1138,9 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
         ``yaw_error`` and ``course_error``, the direction of the CoG velocity minus the path
         heading), status and its time, and ``meta``: ``real_time_factor`` (simulated over wall
         time of the loop) and ``wall_time_s``, which leave out compiling the loop or loading
-        it from numba's cache (``compile_time_s``).
+        it from numba's cache (``compile_time_s``) and drawing the sensor noise
+        (``noise_time_s``: the first block before the loop, the next ones where the loop
+        stops for them; the noise was drawn whole before the loop until session 22).
         ``n_nonfinite_torque_cmd`` and ``n_nonfinite_steer_cmd`` count the control steps
         whose torque / steer command was not finite, and ``first_nonfinite_cmd_t_s`` is the
         time of the first such step (None: none). The actuators hold the previous command in
@@ -1195,12 +1197,14 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     n_ctrl = prep.n_steps // timing.control_every + 1
     n_log = prep.n_steps // timing.log_every + 1
     # the sensor noise a block at a time (the loop stops at a block's end for the next one)
+    t_draw = time.perf_counter()
     sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl, sc.seed,
                                         block=_NOISE_BLOCK)
+    noise0_s = time.perf_counter() - t_draw
     try:  # the log of the whole duration
-        # column by column (order "F"): each signal's rows are contiguous, and the trajectory
+        # a row per signal (len(LOG), n_log): each signal contiguous, and the trajectory
         # takes them without a copy (trajectory._adopting)
-        log = np.full((n_log, len(LOG)), np.nan, order="F")
+        log = np.full((len(LOG), n_log), np.nan)
     except MemoryError as exc:
         d = timing.duration_s
         d = "the run" if d is None else f"timing.duration_s = {d:g} s"
@@ -1249,6 +1253,7 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     _closed_loop.compile(tuple(numba.typeof(a) for a in loop_args(0, prep.n_steps)))
     compile_s = time.perf_counter() - t_compile
     t0 = time.perf_counter()
+    noise_s = 0.0  # drawing the sensor noise's blocks after the first (out of the loop's time)
     k0 = 0
     n_calls = 0
     ce = timing.control_every
@@ -1258,7 +1263,9 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
         k_end = min(prep.n_steps, (sens.first_step + sens.noise.shape[1]) * ce)
         code, k_stop, rows = _closed_loop(*loop_args(k0, k_end))
         if code == 0 and k_stop == k_end < prep.n_steps:
+            t_draw = time.perf_counter()
             sens.next_block()  # the block's end: the run goes on from step k_stop
+            noise_s += time.perf_counter() - t_draw
             k0 = k_stop
             continue
         if code != _PAUSE:
@@ -1275,23 +1282,23 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
         ls[_LS_DE_CMD] = delta
         ls[_LS_RESUME] = 1.0
         k0 = k_stop
-    wall = time.perf_counter() - t0
-    log = log[:rows]
+    wall = time.perf_counter() - t0 - noise_s
+    log = log[:, :rows]
     status = _STATUS[int(code)]
     sim_time = k_stop * timing.plant_dt_s
-    signals = {m.name.lower(): log[:, m] for m in LOG if m is not LOG.T}
+    signals = {m.name.lower(): log[m] for m in LOG if m is not LOG.T}
     # errors against the reference by arc length (metrics.py definitions)
     s_ref = ref["s_path"]
     # heading = path course - sideslip (ISO 8855): for a recording the recorded yaw (issue 7's
     # definition; prepare). The LVMS recording's phi follows its course, atan2(dy, dx), signed
     # median difference -0.03 deg (its PROVENANCE.md): its car's sideslip is not in it
     psi_full = ref["psi"] - prep.beta_ref
-    s_log = np.clip(log[:, LOG.S], s_ref[0], s_ref[-1])
-    signals["lateral_error"] = log[:, LOG.E_Y] - np.interp(s_log, s_ref, ref["e_y_ref"])
-    signals["yaw_error"] = wrap_angle(log[:, LOG.PSI] - np.interp(s_log, s_ref, psi_full))
+    s_log = np.clip(log[LOG.S], s_ref[0], s_ref[-1])
+    signals["lateral_error"] = log[LOG.E_Y] - np.interp(s_log, s_ref, ref["e_y_ref"])
+    signals["yaw_error"] = wrap_angle(log[LOG.PSI] - np.interp(s_log, s_ref, psi_full))
     # direction of the CoG velocity against the path heading (no sideslip model involved): what
     # a steering law can hold when the CoG is on the path (benchmarks/README.md "Closed loop")
-    course = log[:, LOG.PSI] + np.arctan2(log[:, LOG.VY], log[:, LOG.VX])
+    course = log[LOG.PSI] + np.arctan2(log[LOG.VY], log[LOG.VX])
     signals["course_error"] = wrap_angle(course - np.interp(s_log, s_ref, ref["psi"]))
     units = dict(_UNITS, lateral_error="m", yaw_error="rad", course_error="rad")
     units["f_lat"] = "m/s^2" if sc.controller == "mfc-natural" else "kg m^2/s^2"
@@ -1305,6 +1312,8 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
         "wall_time_s": wall,
         # time to compile the loop or load it from the cache, outside wall_time_s
         "compile_time_s": compile_s,
+        # drawing the sensor noise, the first block included (outside wall_time_s)
+        "noise_time_s": noise_s + noise0_s,
         # control steps whose command was not finite (the actuators held the previous one)
         "n_nonfinite_torque_cmd": int(ls[_LS_NF_TW]),
         "n_nonfinite_steer_cmd": int(ls[_LS_NF_DE]),
@@ -1327,7 +1336,7 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
             "command there (flatfree.actuators.actuate_step). Counts in the trajectory's meta "
             "(n_nonfinite_torque_cmd, n_nonfinite_steer_cmd)", RuntimeWarning)
     with _adopting():  # the log's columns, which nothing else holds
-        return Trajectory(time=log[:, LOG.T], signals=signals, units=units, status=status,
+        return Trajectory(time=log[LOG.T], signals=signals, units=units, status=status,
                           status_time=None if status is Status.COMPLETED else sim_time,
                           meta=meta)
 
