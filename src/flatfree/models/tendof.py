@@ -927,17 +927,24 @@ def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     # diagnostic plain slip ratios only in the last stage (the one left in diag)
     cl, sl, cr_, sr_ = _steer_trig(u, p)
     cb, sbx, sby = _bank_trig(u)
-    _rhs_steered(x, u, p, tpf, tpr, k1, diag, cl, sl, cr_, sr_, cb, sbx, sby, False)
+    # the stages' flag as a run-time bool (bool() of a constant is typed ``boolean``, not
+    # ``Literal[bool]``): one compiled right-hand side for the four stages. Passed as the
+    # literals False and True, numba compiled two ~32 KB copies, both hot, and the closed
+    # loop around them outgrew the instruction cache (benchmarks/README.md "One right-hand
+    # side for the four RK4 stages")
+    inner = bool(False)
+    last = bool(True)
+    _rhs_steered(x, u, p, tpf, tpr, k1, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     h2 = 0.5 * dt
     for i in range(n):
         xt[i] = x[i] + h2 * k1[i]
-    _rhs_steered(xt, u, p, tpf, tpr, k2, diag, cl, sl, cr_, sr_, cb, sbx, sby, False)
+    _rhs_steered(xt, u, p, tpf, tpr, k2, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     for i in range(n):
         xt[i] = x[i] + h2 * k2[i]
-    _rhs_steered(xt, u, p, tpf, tpr, k3, diag, cl, sl, cr_, sr_, cb, sbx, sby, False)
+    _rhs_steered(xt, u, p, tpf, tpr, k3, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     for i in range(n):
         xt[i] = x[i] + dt * k3[i]
-    _rhs_steered(xt, u, p, tpf, tpr, k4, diag, cl, sl, cr_, sr_, cb, sbx, sby, True)
+    _rhs_steered(xt, u, p, tpf, tpr, k4, diag, cl, sl, cr_, sr_, cb, sbx, sby, last)
     h6 = dt / 6.0
     for i in range(n):
         out[i] = x[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
