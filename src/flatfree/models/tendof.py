@@ -929,11 +929,11 @@ def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     cb, sbx, sby = _bank_trig(u)
     # the stages' flag as a run-time bool (bool() of a constant is typed ``boolean``, not
     # ``Literal[bool]``): one compiled right-hand side for the four stages. Passed as the
-    # literals False and True, numba compiled two ~32 KB copies, both hot, and the closed
-    # loop around them outgrew the instruction cache (benchmarks/README.md "One right-hand
-    # side for the four RK4 stages")
-    inner = bool(False)
-    last = bool(True)
+    # literals False and True, numba compiled two ~32 KB copies, both hot, and inside the
+    # closed loop they ran ~70-190 ns a step slower than alone (the code's size, likely; no
+    # counters to tell: benchmarks/README.md "One right-hand side for the four RK4 stages")
+    inner = bool(False)  # noqa: UP018 (not a literal: the point)
+    last = bool(True)  # noqa: UP018
     _rhs_steered(x, u, p, tpf, tpr, k1, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     h2 = 0.5 * dt
     for i in range(n):
