@@ -8,7 +8,9 @@ Run as a script::
 The default speed profile switches from full drive (+3 m/s^2) to full braking (-6 m/s^2) from
 one node to the next (no longitudinal jerk limit; ``flatfree.tracks.speed``), and the earlier
 notes named such a limit as the next thing to try against the algebraic ``paper`` design's
-departures on Spa (Eau Rouge ~30-32 s, the chicane ~42-45 s). Before building one into the
+departures on Spa (with the controller's defaults, session 12: Eau Rouge ~30-32 s, the chicane
+~42-45 s; with session 21's settings mostly the chicane, 42.5-48 s, benchmarks/README.md
+"Three log sections re-run with session 21's settings"). Before building one into the
 profile this script asks whether it would help, with a stand-in: every profile the reference
 builds is replaced by a morphological *opening* of its speed, a minimum filter over ``W``
 nodes followed by a moving average over the same ``W`` nodes (both wrapping round a closed
