@@ -250,3 +250,20 @@ def test_loop_vectorises_without_libm_calls():
     assert not re.search(r"call\w*\s+.*\b(atan|sin|cos|exp)\b", asm)
     packed = re.findall(r"\bv?(?:mul|add|sub|div|fmadd\d+|fnmadd\d+)pd\b", asm)
     assert len(packed) >= 40  # the polynomials and reductions run on packed doubles
+
+
+def test_stack_array():
+    """A (rows, cols) C-contiguous float64 scratch in the caller's frame, fresh per call."""
+
+    @njit(error_model="numpy")
+    def fill(a):
+        s = vm.stack_array(3, 4)
+        for i in range(3):
+            for j in range(4):
+                s[i, j] = a[i] * 10.0 + j
+        return s.shape[0], s.shape[1], s.strides[0], s.strides[1], s[2, 3], s.sum()
+
+    a = np.array([1.0, 2.0, 3.0])
+    expect = (3, 4, 32, 8, 33.0, float(sum(a[i] * 10.0 + j for i in range(3) for j in range(4))))
+    assert fill(a) == expect
+    assert fill(a) == expect  # the frame's memory, written again at each call

@@ -70,9 +70,9 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.core.errors import RequireLiteralValue
 from numba.extending import intrinsic
-from numba.np.arrayobj import load_item
+from numba.np.arrayobj import load_item, make_array, populate_array
 
-__all__ = ["atan", "sin", "cos", "exp", "as_tuple", "no_refcount", "all_finite"]
+__all__ = ["atan", "sin", "cos", "exp", "as_tuple", "stack_array", "no_refcount", "all_finite"]
 
 # forceinline: LLVM inlines these into the calling loop (a call would stop vectorisation);
 # error_model="numpy": divisions have no zero check (a branch), x/0 gives inf as in IEEE 754;
@@ -195,6 +195,42 @@ def as_tuple(typingctx, arr, n):
         return out
 
     return tupty(arr, n), codegen
+
+
+@intrinsic
+def stack_array(typingctx, rows, cols):
+    """An uninitialised C-contiguous float64 array of shape ``(rows, cols)`` (compile-time
+    constants) in the stack frame of the compiled function that calls this.
+
+    Scratch for a lane loop's results that the rest of the function reads back: a local array
+    no argument can alias, so the loop's stores to it are contiguous vector stores (an array
+    argument's rows at a stride would be scattered) and nothing else waits on them. Valid until
+    that function returns: never return it or keep a view of it. No reference counting (no
+    meminfo); every element read must have been written first.
+    """
+    if not (isinstance(rows, types.Integer) and isinstance(cols, types.Integer)):
+        return None
+    if not (isinstance(rows, types.IntegerLiteral) and isinstance(cols, types.IntegerLiteral)):
+        raise RequireLiteralValue("stack_array: the shape must be compile-time constants")
+    nr = int(rows.literal_value)
+    nc = int(cols.literal_value)
+    if nr < 1 or nc < 1:
+        raise ValueError("stack_array: the shape must be positive")
+    arrty = types.Array(types.float64, 2, "C")
+
+    def codegen(context, builder, signature, args):
+        dbl = ir.DoubleType()
+        with builder.goto_entry_block():  # once per call of the function, not per use
+            buf = builder.alloca(ir.ArrayType(dbl, nr * nc))
+            buf.align = 32  # a 4-lane vector store within one cache line
+        data = builder.bitcast(buf, dbl.as_pointer())
+        ary = make_array(arrty)(context, builder)
+        intp = context.get_value_type(types.intp)
+        populate_array(ary, data=data, shape=(intp(nr), intp(nc)),
+                       strides=(intp(8 * nc), intp(8)), itemsize=8, meminfo=None)
+        return ary._getvalue()
+
+    return arrty(rows, cols), codegen
 
 
 @njit(**_VJIT)

@@ -173,10 +173,12 @@ vehicle and model constants, built by :meth:`TenDoF.__init__`) and the two tyres
 :func:`rhs_kernel` makes three passes over the wheels: (1) suspension, loads, contact-point
 velocities and the relaxed-slip dynamics, wheel by wheel; (2) the tyre forces of the four
 wheels at once; (3) body forces, moments and wheel spin, wheel by wheel. The per-wheel values
-travel between the passes in the ``diag`` array (its columns are :func:`flatfree.tires.
-mf_combined4`'s lane layout; pass 1 stores the friction scales in the ``kappa_plain`` column,
-where the inner RK4 stages leave them and pass 3 of the last writes the slip ratio; pass 2
-takes them from the input). Pass 2 is, by default
+travel from pass 1 as 4-tuples (registers) and from pass 2 to pass 3 in a 3 x 4 scratch array
+in the function's stack frame (``flatfree._vecmath.stack_array``), so that the lanes' loop
+neither gathers its inputs from scalar stores just made nor scatters its results at a stride
+for pass 3 to wait on; pass 3 writes ``diag`` (its columns are :func:`flatfree.tires.
+mf_combined4`'s lane layout; the inner RK4 stages leave the friction scales in the
+``kappa_plain`` column, the last writes the slip ratio there). Pass 2 is, by default
 (:attr:`TenDoFOptions.tire_lanes`), one loop over four SIMD lanes: the slip angle's ``atan``
 and the whole combined-slip Magic Formula, branch-free, with the polynomial ``atan``, ``sin``,
 ``cos``, ``exp`` of ``flatfree._vecmath``; LLVM evaluates the four wheels in 4-wide vector
@@ -581,8 +583,8 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
         Output: per wheel (:class:`Wheel` order) the columns ``DIAG_FIELDS`` = vertical load
         [N], tyre forces ``F_x``, ``F_y`` in wheel axes [N], slip angle [rad], the slip
         ``kappa_eff`` seen by the tyre [-] and the plain slip ratio
-        ``(Omega R_e - v_xw)/max(|v_xw|, v_min_lat)`` [-]. Also the scratch of the three wheel
-        passes (module docstring, Implementation); another row length raises ValueError.
+        ``(Omega R_e - v_xw)/max(|v_xw|, v_min_lat)`` [-]. Written by pass 3, not read (module
+        docstring, Implementation); another row length raises ValueError.
 
     References
     ----------
@@ -591,6 +593,80 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     cl, sl, cr_, sr_ = _steer_trig(u, p)
     cb, sbx, sby = _bank_trig(u)
     _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, True)
+
+
+@njit(**dict(_JIT_NO_REFCOUNT, forceinline=True))
+def _wheel_pass1(w, x, p, dx, vx, vy, r, z, zd, phi, phid, th, thd, axf, ayf, lf, lr, tf, tr,
+                 re, cl, sl, cr_, sr_, cb):
+    """Pass 1 of :func:`_rhs_steered` for wheel ``w`` (a constant at each call): suspension,
+    load, contact-point velocity and the relaxed slip, whose derivative it writes into ``dx``.
+
+    Returns the load ``F_z``, ``tan`` of the slip angle, the slip ``kappa_eff`` seen by the tyre
+    and the wheel's terms of the heave force, the roll moment and the pitch moment.
+    """
+    front = w < 2
+    left = (w % 2) == 0
+    if front:
+        xi = lf
+        tt = tf
+        k = p[_KF]
+        c = p[_CF]
+        karb_t = p[_ARBTF]
+        fz0 = p[_FZ0F]
+        q_lat = p[_QLATF]
+        inv_sig = p[_INVSIGF]
+        taud = p[_TDF]
+        dlong = -1.0  # front gains load when braking (a_x < 0)
+        if left:
+            cd = cl
+            sd = sl
+        else:
+            cd = cr_
+            sd = sr_
+    else:
+        xi = -lr
+        tt = tr
+        k = p[_KR]
+        c = p[_CR]
+        karb_t = p[_ARBTR]
+        fz0 = p[_FZ0R]
+        q_lat = p[_QLATR]
+        inv_sig = p[_INVSIGR]
+        taud = p[_TDR]
+        dlong = 1.0
+        cd = 1.0
+        sd = 0.0
+    yj = 0.5 * tt if left else -0.5 * tt
+    side = 1.0 if left else -1.0
+
+    # ---- suspension and loads ([VM] 1.4-1.5) ----
+    s = -z + xi * th - yj * phi  # corner compression
+    sd_ = -zd + xi * thd - yj * phid
+    dfs = k * s + c * sd_
+    dfarb = -side * karb_t * phi  # -(2 y_j / T_i^2) K_arb,i phi, 2 y_j / T_i = side
+    # transfer outside the springs: roll-centre links and unsprung masses (filtered a)
+    # per wheel: lateral m_s share_i a_y h_rc,i / T_i + m_u,i a_y h_u / T_i, longitudinal
+    # (m_u h_u a_x) / (2 L) with m_u = 2 m_u,i ([VM] 1.5 moment balance); the constant
+    # factors q_lat, q_long are precomputed (_build_params)
+    dfq = -side * q_lat * ayf + dlong * p[_QLONG] * axf
+    fz = fz0 * cb + dfs + dfarb + dfq
+    if fz < 0.0:
+        fz = 0.0  # lift-off
+
+    # ---- contact point and slips ([VM] 1.6) ----
+    vxc = vx - r * yj
+    vyc = vy + r * xi
+    vxw = vxc * cd + vyc * sd
+    vyw = -vxc * sd + vyc * cd
+    om = x[_OM + w]
+    kap = x[_KA + w]
+    vslip = om * re - vxw  # slip speed, > 0 when driving
+    kdot = (vslip - abs(vxw) * kap) * inv_sig  # [P12] 7.2 relaxation, sigma_x
+    dx[_KA + w] = kdot
+    keff = kap + taud * kdot  # Kelvin-Voigt carcass damping (module docstring, item 5)
+    # tan(alpha): the slip angle is atan(v_yw / s(v_xw)), tyre module's slip_angle ([VM] 1.6)
+    tan_a = vyw / slip_speed(vxw, p[_VMIN])
+    return fz, tan_a, keff, dfs, yj * (dfs + dfarb), xi * dfs
 
 
 @njit(**_JIT_NO_REFCOUNT)
@@ -653,127 +729,82 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
 
     # Three passes over the wheels: (1) loads, slips and the relaxed-slip dynamics; (2) the
     # tyre forces of all four wheels at once; (3) body forces and wheel spin. Per-wheel values
-    # pass between them in ``diag`` (its columns are the tyre kernel's lane layout; the
-    # friction scales stand in the kappa_plain column until pass 3 fills it, pass 2 takes
-    # them from ``u``).
+    # pass from (1) to (2) and (3) as 4-tuples (registers) and from (2) to (3) in ``res``, a
+    # scratch array in this function's stack frame; pass 3 writes ``diag``, which nothing here
+    # reads back: with ``diag`` as the passes' scratch, the lanes' loop gathered its inputs
+    # from pass 1's scalar stores just before and scattered its results at diag's stride, and
+    # pass 3's loads waited for the scatters (benchmarks/README.md "The tyre lanes' stores").
     if diag.shape[1] != NDIAG:
         raise ValueError("rhs_kernel: diag must have shape (4, 6)")
-    for w in range(4):
-        front = w < 2
-        left = (w % 2) == 0
-        if front:
-            xi = lf
-            tt = tf
-            k = p[_KF]
-            c = p[_CF]
-            karb_t = p[_ARBTF]
-            fz0 = p[_FZ0F]
-            q_lat = p[_QLATF]
-            inv_sig = p[_INVSIGF]
-            taud = p[_TDF]
-            dlong = -1.0  # front gains load when braking (a_x < 0)
-            if left:
-                cd = cl
-                sd = sl
-            else:
-                cd = cr_
-                sd = sr_
-        else:
-            xi = -lr
-            tt = tr
-            k = p[_KR]
-            c = p[_CR]
-            karb_t = p[_ARBTR]
-            fz0 = p[_FZ0R]
-            q_lat = p[_QLATR]
-            inv_sig = p[_INVSIGR]
-            taud = p[_TDR]
-            dlong = 1.0
-            cd = 1.0
-            sd = 0.0
-        yj = 0.5 * tt if left else -0.5 * tt
-        side = 1.0 if left else -1.0
-
-        # ---- suspension and loads ([VM] 1.4-1.5) ----
-        s = -z + xi * th - yj * phi  # corner compression
-        sd_ = -zd + xi * thd - yj * phid
-        dfs = k * s + c * sd_
-        dfarb = -side * karb_t * phi  # -(2 y_j / T_i^2) K_arb,i phi, 2 y_j / T_i = side
-        # transfer outside the springs: roll-centre links and unsprung masses (filtered a)
-        # per wheel: lateral m_s share_i a_y h_rc,i / T_i + m_u,i a_y h_u / T_i, longitudinal
-        # (m_u h_u a_x) / (2 L) with m_u = 2 m_u,i ([VM] 1.5 moment balance); the constant
-        # factors q_lat, q_long are precomputed (_build_params)
-        dfq = -side * q_lat * ayf + dlong * p[_QLONG] * axf
-        fz = fz0 * cb + dfs + dfarb + dfq
-        if fz < 0.0:
-            fz = 0.0  # lift-off
-        f_heave += dfs
-        m_roll_susp += yj * (dfs + dfarb)
-        m_pitch_susp += xi * dfs
-
-        # ---- contact point and slips ([VM] 1.6) ----
-        vxc = vx - r * yj
-        vyc = vy + r * xi
-        vxw = vxc * cd + vyc * sd
-        vyw = -vxc * sd + vyc * cd
-        om = x[_OM + w]
-        kap = x[_KA + w]
-        vslip = om * re - vxw  # slip speed, > 0 when driving
-        kdot = (vslip - abs(vxw) * kap) * inv_sig  # [P12] 7.2 relaxation, sigma_x
-        dx[_KA + w] = kdot
-        keff = kap + taud * kdot  # Kelvin-Voigt carcass damping (module docstring, item 5)
-
-        diag[w, 0] = fz
-        # tan(alpha): the slip angle is atan(v_yw / s(v_xw)), tyre module's slip_angle ([VM] 1.6)
-        diag[w, 3] = vyw / slip_speed(vxw, p[_VMIN])
-        diag[w, 4] = keff
-        diag[w, 5] = u[_MU + w]
+    fz_0, tan_0, ke_0, dh, dr, dp = _wheel_pass1(0, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
+                                                  thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
+                                                  cr_, sr_, cb)
+    f_heave += dh
+    m_roll_susp += dr
+    m_pitch_susp += dp
+    fz_1, tan_1, ke_1, dh, dr, dp = _wheel_pass1(1, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
+                                                  thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
+                                                  cr_, sr_, cb)
+    f_heave += dh
+    m_roll_susp += dr
+    m_pitch_susp += dp
+    fz_2, tan_2, ke_2, dh, dr, dp = _wheel_pass1(2, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
+                                                  thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
+                                                  cr_, sr_, cb)
+    f_heave += dh
+    m_roll_susp += dr
+    m_pitch_susp += dp
+    fz_3, tan_3, ke_3, dh, dr, dp = _wheel_pass1(3, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
+                                                  thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
+                                                  cr_, sr_, cb)
+    f_heave += dh
+    m_roll_susp += dr
+    m_pitch_susp += dp
+    fz4 = (fz_0, fz_1, fz_2, fz_3)
+    tan4 = (tan_0, tan_1, tan_2, tan_3)  # tan of the slip angles
+    ke4 = (ke_0, ke_1, ke_2, ke_3)
+    mu4 = (u[_MU], u[_MU + 1], u[_MU + 2], u[_MU + 3])
+    res = vm.stack_array(3, 4)  # rows: slip angle, F_x, F_y; a column per wheel
 
     # ---- tyre forces, wheel axes ([P12] 4.3.2; flatfree.tires) ----
     if p[_LANES] != 0.0:
         # the four wheels in SIMD lanes: the loop of flatfree.tires.mf_combined4 with the slip
-        # angle's atan in it. The tyres enter as tuples and diag's row length is known (checked
-        # above), so the loop touches no memory but diag at a constant stride: LLVM vectorises it.
+        # angle's atan in it. Its inputs are values (tuples), its outputs contiguous rows of
+        # res, which no argument can alias: LLVM vectorises it with plain vector stores.
         ta = vm.as_tuple(tpf, _NTP)
         tb = vm.as_tuple(tpr, _NTP)
-        # the friction scales as values too, not from diag: the loop's vector loads of diag
-        # wait for pass 1's scalar stores to it just before (a vector load cannot take its
-        # data from several stores in flight): one column fewer to load (with the constants
-        # read before the stores below, an RK4 step 26-41 ns faster: benchmarks/README.md
-        # "The 10DoF right-hand side: fewer memory waits")
-        mu4 = (u[_MU], u[_MU + 1], u[_MU + 2], u[_MU + 3])
         # the variant, decided once per model (_build_params: flatfree.tires._lanes_general,
         # _lanes_g_plain on the two tyres), not at every call
         variant = p[_LVAR]
         if variant == 2.0:
             for w in range(4):
-                alpha = vm.atan(diag[w, 3])
-                diag[w, 3] = alpha
-                diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
-                                                           _of_wheel(mu4, w), ta, tb, w < 2,
-                                                           True)
+                alpha = vm.atan(_of_wheel(tan4, w))
+                res[0, w] = alpha
+                res[1, w], res[2, w] = _mf_combined_lane(_of_wheel(ke4, w), alpha,
+                                                         _of_wheel(fz4, w), _of_wheel(mu4, w),
+                                                         ta, tb, w < 2, True)
         elif variant == 1.0:
             # weighting curves with E = 0 (flatfree.tires._mf_combined_lane, g_plain)
             for w in range(4):
-                alpha = vm.atan(diag[w, 3])
-                diag[w, 3] = alpha
-                diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
-                                                           _of_wheel(mu4, w), ta, tb, w < 2,
-                                                           False, True)
+                alpha = vm.atan(_of_wheel(tan4, w))
+                res[0, w] = alpha
+                res[1, w], res[2, w] = _mf_combined_lane(_of_wheel(ke4, w), alpha,
+                                                         _of_wheel(fz4, w), _of_wheel(mu4, w),
+                                                         ta, tb, w < 2, False, True)
         else:
             for w in range(4):
-                alpha = vm.atan(diag[w, 3])
-                diag[w, 3] = alpha
-                diag[w, 1], diag[w, 2] = _mf_combined_lane(diag[w, 4], alpha, diag[w, 0],
-                                                           _of_wheel(mu4, w), ta, tb, w < 2,
-                                                           False)
+                alpha = vm.atan(_of_wheel(tan4, w))
+                res[0, w] = alpha
+                res[1, w], res[2, w] = _mf_combined_lane(_of_wheel(ke4, w), alpha,
+                                                         _of_wheel(fz4, w), _of_wheel(mu4, w),
+                                                         ta, tb, w < 2, False)
     else:
         # scalar reference: slip_angle's atan and mf_combined, wheel by wheel
         for w in range(4):
-            alpha = math.atan(diag[w, 3])
-            diag[w, 3] = alpha
-            diag[w, 1], diag[w, 2] = mf_combined(diag[w, 4], alpha, diag[w, 0], u[_MU + w],
-                                                 tpf if w < 2 else tpr)
+            alpha = math.atan(_of_wheel(tan4, w))
+            res[0, w] = alpha
+            res[1, w], res[2, w] = mf_combined(_of_wheel(ke4, w), alpha, _of_wheel(fz4, w),
+                                               _of_wheel(mu4, w), tpf if w < 2 else tpr)
 
     # Everything pass 3 and the body read from p and x is read here, before their first store
     # to dx: the compiler must assume that dx may overlap p and x and would load again after
@@ -822,9 +853,9 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
             cd = 1.0
             sd = 0.0
         yj = 0.5 * tt if left else -0.5 * tt
-        fz = diag[w, 0]
-        fx = diag[w, 1]
-        fy = diag[w, 2]
+        fz = _of_wheel(fz4, w)
+        fx = res[1, w]
+        fy = res[2, w]
 
         # ---- body forces ([VM] 1.2-1.3) ----
         fxb = fx * cd - fy * sd
@@ -842,10 +873,17 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
             tq -= tbrake * _smooth_sign(om, eps_b)
         dx[_OM + w] = tq * inv_iw
 
+        diag[w, 0] = fz
+        diag[w, 1] = fx
+        diag[w, 2] = fy
+        diag[w, 3] = res[0, w]
+        diag[w, 4] = _of_wheel(ke4, w)
         if plain_slip:
             # plain slip ratio (diagnostics): the contact-point speed of pass 1, recomputed
             vxw = (vx - r * yj) * cd + (vy + r * xi) * sd
             diag[w, 5] = (om * re - vxw) / max(abs(vxw), v_min)
+        else:
+            diag[w, 5] = _of_wheel(mu4, w)
 
     # ---- planar motion ([VM] 1.3) ----
     ax = (sum_fx - fd) * inv_m  # body-frame CoG acceleration
