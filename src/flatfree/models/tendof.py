@@ -952,10 +952,15 @@ def drive_speed(x, p):
 def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     """One classical RK4 step of :func:`rhs_kernel`, input held: writes ``x(t + dt)`` into ``out``.
 
-    ``work`` is a float64[5, 22] scratch array and ``diag`` a float64[4, 6] one (left holding
-    the diagnostics of the last stage). ``out`` may be ``x`` itself.
+    ``x`` and ``out`` have 22 entries (NX, not checked), ``work`` is a float64[5, 22] scratch
+    array and ``diag`` a float64[4, 6] one (left holding the diagnostics of the last stage).
+    ``out`` may be ``x`` itself.
     """
-    n = x.shape[0]
+    # the state's length as a constant: LLVM unrolls the stage updates below into scalar code.
+    # With a run-time length it vectorised them, and their 4-wide loads of k1 .. k4 waited for
+    # the right-hand side's scalar stores just before (a vector load cannot take its data from
+    # several stores in flight: benchmarks/README.md "The tyre lanes' stores")
+    n = NX
     k1 = work[0]
     k2 = work[1]
     k3 = work[2]
@@ -982,10 +987,14 @@ def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     _rhs_steered(xt, u, p, tpf, tpr, k3, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     for i in range(n):
         xt[i] = x[i] + dt * k3[i]
+    # the weighted sum's first terms, in its order of operations, before the last stage (so
+    # off its path; k2 is free again): the update after it is short enough to be unrolled too
+    for i in range(n):
+        k2[i] = k1[i] + 2.0 * (k2[i] + k3[i])
     _rhs_steered(xt, u, p, tpf, tpr, k4, diag, cl, sl, cr_, sr_, cb, sbx, sby, last)
     h6 = dt / 6.0
     for i in range(n):
-        out[i] = x[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+        out[i] = x[i] + h6 * (k2[i] + k4[i])  # = x + h6 (k1 + 2 (k2 + k3) + k4), bit for bit
 
 
 @njit(**_JIT)
