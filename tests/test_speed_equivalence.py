@@ -168,6 +168,12 @@ def test_rk4_step_equals_four_right_hand_sides(ackermann):
         ref = x + dt / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
         np.testing.assert_array_equal(out, ref)
         np.testing.assert_array_equal(diag, diag_ref)
+    # its loops run over the 22 states as a constant: other lengths are refused, not overrun
+    msg = r"^rk4_step_kernel: x and out must have 22 entries, work shape \(5, 22\)$"
+    for bad in ((x[:-1], out, work), (x, np.empty(n + 1), work), (x, out, np.empty((4, n))),
+                (x, out, np.empty((5, n - 1)))):
+        with pytest.raises(ValueError, match=msg):
+            rk4_step_kernel(bad[0], u, dt, model.params, tpf, tpr, bad[1], bad[2], diag)
 
 
 # ---- the estimators' sums: views instead of offset indexing ----------------------------------

@@ -952,10 +952,12 @@ def drive_speed(x, p):
 def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     """One classical RK4 step of :func:`rhs_kernel`, input held: writes ``x(t + dt)`` into ``out``.
 
-    ``x`` and ``out`` have 22 entries (NX, not checked), ``work`` is a float64[5, 22] scratch
-    array and ``diag`` a float64[4, 6] one (left holding the diagnostics of the last stage).
-    ``out`` may be ``x`` itself.
+    ``x`` and ``out`` have 22 entries (NX), ``work`` is a float64[5, 22] scratch array and
+    ``diag`` a float64[4, 6] one (left holding the diagnostics of the last stage); other
+    lengths raise ValueError. ``out`` may be ``x`` itself.
     """
+    if x.shape[0] != NX or out.shape[0] != NX or work.shape[0] < 5 or work.shape[1] != NX:
+        raise ValueError("rk4_step_kernel: x and out must have 22 entries, work shape (5, 22)")
     # the state's length as a constant: LLVM unrolls the stage updates below into scalar code.
     # With a run-time length it vectorised them, and their 4-wide loads of k1 .. k4 waited for
     # the right-hand side's scalar stores just before (a vector load cannot take its data from
