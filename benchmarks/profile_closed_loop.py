@@ -179,8 +179,9 @@ def _end_to_end(sc, tr) -> None:
     prep = prepare(sc)
     ref = prep.reference
     n_ctrl = prep.n_steps // sc.timing.control_every + 1
-    # the control steps the lap ran (the noise up to the end of the block of its last one)
-    n_run = int(round(tr.duration / sc.timing.control_dt_s)) + 1
+    # the control steps the lap ran (the noise up to the end of the block of its last one; the
+    # loop may have run up to a log period past the last logged row)
+    n_run = int(round((tr.duration + sc.timing.log_dt_s) / sc.timing.control_dt_s)) + 1
 
     def best(fn) -> float:
         return best_time(fn, repeats=5)

@@ -6,6 +6,7 @@ Run as a script::
     python benchmarks/sweep_seeds.py --seeds 3 --tracks Norisring,Spa
     python benchmarks/sweep_seeds.py --vehicle dallara_av21 --set alpha_lat=60 --tracks LVMS
     python benchmarks/sweep_seeds.py --drive-limit      # the power-aware speed profile
+    python benchmarks/sweep_seeds.py --tracks Spa --ref a_lat_max=5.5   # a reference setting
 
 It prints, per track, the range of the max lateral error (after the 1 s start-up, whole laps)
 over the seeds that completed (its median, and how many are within 2 cm), which seeds left the
@@ -54,11 +55,10 @@ def parse_settings(items: list[str]) -> dict:
     return settings
 
 
-def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict,
-         drive_limit: bool):
+def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict, ref: dict):
     sc = named_scenario(name, track=None if name.startswith("recorded") else track, seed=seed)
-    if drive_limit:
-        sc = sc.with_(reference=dataclasses.replace(sc.reference, drive_limit=True))
+    if ref:  # ReferenceSpec fields (drive_limit, a_lat_max, ...)
+        sc = sc.with_(reference=dataclasses.replace(sc.reference, **ref))
     if vehicle:
         sc = sc.with_(vehicle=vehicle)
     if settings:
@@ -81,18 +81,24 @@ def main(argv: list[str] | None = None) -> None:
                     "(reference.drive_limit)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="controller setting override (repeatable)")
+    ap.add_argument("--ref", action="append", default=[], metavar="KEY=VALUE",
+                    help="reference (ReferenceSpec) field override, e.g. a_lat_max=5.5 "
+                    "(repeatable; a diagnostic: the issue's targets are of the default profile)")
     args = ap.parse_args(argv)
     settings = parse_settings(args.set)
+    ref = parse_settings(args.ref)
+    if args.drive_limit:
+        ref["drive_limit"] = True
     base = args.scenario.removesuffix("-noise-free")
     print(f"scenario {base}, seeds 0-{args.seeds - 1}, vehicle {args.vehicle or 'default'}, "
-          f"settings {settings or 'default'}, drive limit {args.drive_limit}")
+          f"settings {settings or 'default'}, reference {ref or 'default'}")
     t0 = time.perf_counter()
     recorded = base.startswith("recorded")  # recorded, recorded-imu: the recording only
     tracks = ["recording"] if recorded else args.tracks.split(",")
     for track in tracks:
         maxima, left, yaw, speed, tq_rate = [], [], 0.0, 0.0, 0.0
         for seed in range(args.seeds):
-            tr, m = _run(base, track, seed, args.vehicle, settings, args.drive_limit)
+            tr, m = _run(base, track, seed, args.vehicle, settings, ref)
             if m.status == "completed":
                 maxima.append(m.lateral_error_max_m)
                 yaw = max(yaw, m.yaw_error_max_deg)
@@ -100,8 +106,7 @@ def main(argv: list[str] | None = None) -> None:
                 tq_rate = max(tq_rate, m.torque_rate_rms_nmps)
             else:
                 left.append(f"{seed} ({m.status} at {tr.status_time:.1f} s)")
-        ctr, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings,
-                          args.drive_limit)
+        ctr, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings, ref)
         # the range, and the median and the laps within the 2 cm (the default track's
         # target) over the completed seeds
         span = (f"{100 * min(maxima):.2f}-{100 * max(maxima):.2f} cm (median "

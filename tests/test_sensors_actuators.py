@@ -464,16 +464,24 @@ def test_noise_drawn_in_blocks_is_the_noise_drawn_whole(block):
     whole = suite.compile(names, 0.001, n, seed=11)
     assert whole.first_step == 0
     np.testing.assert_array_equal(_blocks(suite, names, n, 11, block), whole.noise)
-    # measured through sense_step, delays and holds across the blocks' ends included
+    # measured through sense_step, delays and holds across the blocks' ends included; reset
+    # starts the streams again: a second run measures the same
     truth = np.random.default_rng(2).standard_normal((n, len(names)))
     cs = suite.compile(names, 0.001, n, seed=11, block=block)
-    out = np.empty(truth.shape)
-    for k in range(n):
-        if k - cs.first_step == cs.noise.shape[1]:
-            cs.next_block()
-        sense_step(k, truth[k], cs.table, cs.noise, k - cs.first_step, cs.history, cs.held,
-                   out[k])
-    np.testing.assert_array_equal(out, _measure(whole, truth))
+
+    def measure():
+        out = np.empty(truth.shape)
+        for k in range(n):
+            if k - cs.first_step == cs.noise.shape[1]:
+                cs.next_block()
+            sense_step(k, truth[k], cs.table, cs.noise, k - cs.first_step, cs.history,
+                       cs.held, out[k])
+        return out
+
+    np.testing.assert_array_equal(measure(), _measure(whole, truth))
+    cs.reset()
+    assert cs.first_step == 0
+    np.testing.assert_array_equal(measure(), _measure(whole, truth))
 
 
 def test_a_block_is_a_whole_number_of_steps_and_whole_sensors_have_no_next_block():

@@ -1195,18 +1195,19 @@ def test_the_flat_output_designs_follow_an_offset_line(name):
     assert abs(np.mean(tr["e_y"][after]) - 0.5) < 0.02  # the path is 0.5 m to the right
 
 
-@pytest.mark.parametrize("block", [997, 4096])
+@pytest.mark.parametrize("block, plant_dt", [(997, 0.001), (4096, 0.001), (1500, 0.0005)])
 def test_the_noise_drawn_a_block_at_a_time_gives_the_run_of_the_noise_drawn_whole(
-        monkeypatch, block):
+        monkeypatch, block, plant_dt):
     """simulation._NOISE_BLOCK: the loop stops where a block of sensor noise ends and goes on
     from the same step with the next block; the trajectory is the one of the whole run's
     noise drawn at once, bit for bit (every signal and the status), through the compiled door
     and through a Python controller's pauses (a block's end between two of them), with
-    sensors that drift and are delayed and held."""
+    sensors that drift and are delayed and held, and with the plant twice as fast as the
+    controller (a block's end in control steps, not plant steps)."""
     from flatfree import simulation
     from flatfree.sensors import SensorChannel, SensorSuite
 
-    sc = _scenario(timing=Timing(duration_s=6.0, log_dt_s=0.01))
+    sc = _scenario(timing=Timing(duration_s=6.0, log_dt_s=0.01, plant_dt_s=plant_dt))
     sensors = SensorSuite({**sc.sensors.channels,
                            "x": SensorChannel(noise_std=0.002, markov_std=0.01,
                                               markov_tau_s=1.0, markov_order=2),
@@ -1214,17 +1215,37 @@ def test_the_noise_drawn_a_block_at_a_time_gives_the_run_of_the_noise_drawn_whol
     sc = sc.with_(sensors=sensors)
     monkeypatch.setattr(simulation, "_NOISE_BLOCK", 10**9)
     whole = simulate(sc)
-    whole_py = simulate(sc.with_(timing=Timing(duration_s=1.5, log_dt_s=0.01)),
-                        controller=_NaturalDoor(sc))
+    short = sc.with_(timing=dataclasses.replace(sc.timing, duration_s=1.5))
+    whole_py = simulate(short, controller=_NaturalDoor(short))
     monkeypatch.setattr(simulation, "_NOISE_BLOCK", block)
     blocks = simulate(sc)
     assert whole.status is blocks.status and whole.duration == blocks.duration > 5.9
     for k in whole:
         np.testing.assert_array_equal(blocks[k], whole[k], err_msg=k)
-    py = simulate(sc.with_(timing=Timing(duration_s=1.5, log_dt_s=0.01)),
-                  controller=_NaturalDoor(sc))
+    py = simulate(short, controller=_NaturalDoor(short))
     for k in whole_py:
         np.testing.assert_array_equal(py[k], whole_py[k], err_msg=k)
+
+
+@pytest.mark.parametrize("block", [1, 2, 3])
+def test_a_state_that_goes_non_finite_at_a_noise_blocks_end_ends_the_run_the_same(
+        monkeypatch, block):
+    """The loop checks the state a block's last step left (its for-else), as the next step
+    would: the overflowing stiff spring stops the run with the same status, time and rows
+    whatever the block (a block's end at the overflowing step or just before or after it)."""
+    from flatfree import simulation
+    from flatfree.scenarios import named_scenario
+
+    stiff = named_scenario("paper").with_(vehicle_overrides={"spring_front": 1e100},
+                                          timing=Timing(duration_s=0.05, log_dt_s=0.001))
+    monkeypatch.setattr(simulation, "_NOISE_BLOCK", 10**9)
+    whole = simulate(stiff)
+    assert whole.status is Status.NON_FINITE
+    monkeypatch.setattr(simulation, "_NOISE_BLOCK", block)
+    tr = simulate(stiff)
+    assert tr.status is whole.status and tr.status_time == whole.status_time
+    for k in whole:
+        np.testing.assert_array_equal(tr[k], whole[k], err_msg=k)
 
 
 def test_a_runs_signals_are_contiguous_read_only_and_its_own():
@@ -1239,7 +1260,15 @@ def test_a_runs_signals_are_contiguous_read_only_and_its_own():
         assert not np.shares_memory(a[k], b[k]), k
         with pytest.raises(ValueError, match="read-only"):
             a[k][0] = 1.0
+        assert a[k].base is None or not a[k].base.flags.writeable, k
     given = np.arange(3.0)
     tr = Trajectory(time=given, signals={"v": given}, units={"v": "m"})
     given[0] = 9.0
     assert tr.time[0] == 0.0 and tr["v"][0] == 0.0
+    # a run that ends early keeps only its rows: the log shrunk to them
+    lock = Fault(kind="steer_limit", t_start_s=0.0, duration_s=20.0, value=0.0)
+    left = simulate(_scenario(faults=(lock,), timing=Timing(duration_s=20.0, log_dt_s=0.01)))
+    assert left.status is Status.LEFT_TRACK and len(left) < 2001  # of the rows allotted
+    base = left["x"].base
+    assert base.shape == (27, len(left)) and base.nbytes == 27 * 8 * len(left)
+    assert all(np.shares_memory(left[k], base) for k in ("time", "x", "steer", "t_ref"))

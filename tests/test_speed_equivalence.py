@@ -174,6 +174,11 @@ def test_rk4_step_equals_four_right_hand_sides(ackermann):
                 (x, out, np.empty((5, n - 1)))):
         with pytest.raises(ValueError, match=msg):
             rk4_step_kernel(bad[0], u, dt, model.params, tpf, tpr, bad[1], bad[2], diag)
+    for bad_diag in (np.empty((3, 6)), np.empty((4, 5))):  # pass 3 writes its 4 x 6
+        with pytest.raises(ValueError, match=r"diag must have shape \(4, 6\)"):
+            rk4_step_kernel(x, u, dt, model.params, tpf, tpr, out, work, bad_diag)
+        with pytest.raises(ValueError, match=r"diag must have shape \(4, 6\)"):
+            rhs_kernel(x, u, model.params, tpf, tpr, np.empty(n), bad_diag)
 
 
 # ---- the estimators' sums: views instead of offset indexing ----------------------------------

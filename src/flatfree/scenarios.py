@@ -43,7 +43,8 @@ specific unit):
   the algebraic design leaves the track when a first-order drift's correlation time is short,
   whose increments are a random walk, and with a smooth second-order one completes every
   Norisring run, 15 of 15, and 12 of 15 on Spa, its three losses on the one seed of the five
-  that leaves Spa without drift too; session 22, ``paper``'s settings of session 21).
+  that leaves Spa without drift too; session 22 on its AMD host, ``paper``'s settings of
+  session 21).
 - ``psi``: dual-antenna GNSS/INS heading 0.1 deg (1 sigma) [OX] = 1.7e-3 rad, white.
 - ``vx``: wheel-speed based speed (the issue's example): 0.05 m/s (tyre radius and slip errors;
   an engineering estimate). ``vy``: INS velocity 0.02 m/s ([OX] class 0.014-0.02 m/s RMS).

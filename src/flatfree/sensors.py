@@ -152,9 +152,13 @@ class CompiledSensors:
         return self._draw.next(self.noise)
 
     def reset(self) -> None:
-        """Clear the state (history and held values) for a new run (the noise drawn stays)."""
+        """Clear the state (history and held values) for a new run, which then measures with
+        the same noise: compiled whole, the noise stays; in blocks, the streams start again
+        and the first block is drawn again."""
         self.history[:] = np.nan
         self.held[:] = np.nan
+        if self._draw is not None and self._draw.first_step != 0:
+            self._draw.restart(self.noise)
 
 
 @njit(**no_refcount({"cache": True}))
@@ -191,6 +195,7 @@ class _NoiseDraw:
 
     def __init__(self, chans: list[SensorChannel], names: tuple[str, ...], seed: int,
                  dt_control: float) -> None:
+        self._args = (chans, names, seed, dt_control)
         self.first_step = 0
         self._drawn = 0  # control steps drawn so far
         self._rows = []
@@ -200,6 +205,11 @@ class _NoiseDraw:
             white, drift = channel_streams(seed, names[i])
             phi = (math.exp(-dt_control / ch.markov_tau_s) if ch.markov_std > 0.0 else 0.0)
             self._rows.append([i, ch, white, drift, phi, None])  # None: no drift state yet
+
+    def restart(self, noise: np.ndarray) -> None:
+        """The streams from their start again, and the first block drawn into ``noise``."""
+        self.__init__(*self._args)
+        self.next(noise)
 
     def next(self, noise: np.ndarray) -> int:
         """Draw the next ``noise.shape[1]`` steps into ``noise``; return their first step."""

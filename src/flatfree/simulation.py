@@ -1140,7 +1140,7 @@ def simulate(sc: Scenario | str, controller: PythonController | None = None) -> 
         time of the loop) and ``wall_time_s``, which leave out compiling the loop or loading
         it from numba's cache (``compile_time_s``) and drawing the sensor noise
         (``noise_time_s``: the first block before the loop, the next ones where the loop
-        stops for them; the noise was drawn whole before the loop until session 22).
+        stops for them).
         ``n_nonfinite_torque_cmd`` and ``n_nonfinite_steer_cmd`` count the control steps
         whose torque / steer command was not finite, and ``first_nonfinite_cmd_t_s`` is the
         time of the first such step (None: none). The actuators hold the previous command in
@@ -1283,7 +1283,16 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
         ls[_LS_RESUME] = 1.0
         k0 = k_stop
     wall = time.perf_counter() - t0 - noise_s
-    log = log[:, :rows]
+    if rows < log.shape[1]:
+        # the rows logged, moved to the front signal by signal (numpy copies overlapping
+        # ranges safely), and the buffer shrunk to them: the trajectory's signals are then
+        # its only contents, without a second copy at the run's peak
+        flat = log.reshape(-1)
+        for m in range(1, len(LOG)):
+            flat[m * rows:(m + 1) * rows] = log[m, :rows]
+        del flat
+        log.resize((len(LOG), rows), refcheck=False)
+    log.flags.writeable = False
     status = _STATUS[int(code)]
     sim_time = k_stop * timing.plant_dt_s
     signals = {m.name.lower(): log[m] for m in LOG if m is not LOG.T}

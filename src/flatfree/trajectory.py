@@ -49,6 +49,13 @@ def _adopting() -> Iterator[None]:
         _ADOPT.reset(token)
 
 
+def _float_array(values, adopt: bool) -> np.ndarray:
+    """``values`` as float64: a copy, or (``adopt``) the array itself where it is one."""
+    if adopt:
+        return np.asarray(values, dtype=np.float64)
+    return np.array(values, dtype=np.float64, copy=True)
+
+
 class Status(enum.Enum):
     """How a closed-loop run ended."""
 
@@ -88,8 +95,8 @@ class Trajectory:
     meta: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        copy = not _ADOPT.get()
-        t = np.array(self.time, dtype=np.float64, copy=copy or None)
+        adopt = _ADOPT.get()
+        t = _float_array(self.time, adopt)
         if t.ndim != 1:
             raise ValueError(f"time has shape {t.shape}: expected a 1-D array")
         if t.size > 1 and not np.all(np.diff(t) > 0.0):
@@ -99,7 +106,7 @@ class Trajectory:
         t.flags.writeable = False
         sig: dict[str, np.ndarray] = {}
         for name, values in self.signals.items():
-            a = np.array(values, dtype=np.float64, copy=copy or None)
+            a = _float_array(values, adopt)
             if a.shape != t.shape:
                 raise ValueError(
                     f"signal {name!r} has shape {a.shape}, expected {t.shape} like time"

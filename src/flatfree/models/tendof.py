@@ -734,7 +734,7 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
     # reads back: with ``diag`` as the passes' scratch, the lanes' loop gathered its inputs
     # from pass 1's scalar stores just before and scattered its results at diag's stride, and
     # pass 3's loads waited for the scatters (benchmarks/README.md "The tyre lanes' stores").
-    if diag.shape[1] != NDIAG:
+    if diag.shape[0] < 4 or diag.shape[1] != NDIAG:
         raise ValueError("rhs_kernel: diag must have shape (4, 6)")
     fz_0, tan_0, ke_0, dh, dr, dp = _wheel_pass1(0, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
                                                   thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
