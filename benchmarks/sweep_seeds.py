@@ -7,6 +7,7 @@ Run as a script::
     python benchmarks/sweep_seeds.py --vehicle dallara_av21 --set alpha_lat=60 --tracks LVMS
     python benchmarks/sweep_seeds.py --drive-limit      # the power-aware speed profile
     python benchmarks/sweep_seeds.py --tracks Spa --ref a_lat_max=5.5   # a reference setting
+    python benchmarks/sweep_seeds.py --tracks Spa --car brake_balance_front=0.65  # the car
 
 It prints, per track, the range of the max lateral error (after the 1 s start-up, whole laps)
 over the seeds that completed (its median, and how many are within 2 cm), which seeds left the
@@ -55,10 +56,13 @@ def parse_settings(items: list[str]) -> dict:
     return settings
 
 
-def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict, ref: dict):
+def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict, ref: dict,
+         car: dict | None = None):
     sc = named_scenario(name, track=None if name.startswith("recorded") else track, seed=seed)
     if ref:  # ReferenceSpec fields (drive_limit, a_lat_max, ...)
         sc = sc.with_(reference=dataclasses.replace(sc.reference, **ref))
+    if car:  # VehicleParams fields: the car itself (Scenario.vehicle_overrides)
+        sc = sc.with_(vehicle_overrides={**sc.vehicle_overrides, **car})
     if vehicle:
         sc = sc.with_(vehicle=vehicle)
     if settings:
@@ -84,21 +88,26 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--ref", action="append", default=[], metavar="KEY=VALUE",
                     help="reference (ReferenceSpec) field override, e.g. a_lat_max=5.5 "
                     "(repeatable; a diagnostic: the issue's targets are of the default profile)")
+    ap.add_argument("--car", action="append", default=[], metavar="KEY=VALUE",
+                    help="vehicle field override (Scenario.vehicle_overrides, SI), e.g. "
+                    "brake_balance_front=0.65 (repeatable)")
     args = ap.parse_args(argv)
     settings = parse_settings(args.set)
     ref = parse_settings(args.ref)
+    car = parse_settings(args.car)
     if args.drive_limit:
         ref["drive_limit"] = True
     base = args.scenario.removesuffix("-noise-free")
     print(f"scenario {base}, seeds 0-{args.seeds - 1}, vehicle {args.vehicle or 'default'}, "
-          f"settings {settings or 'default'}, reference {ref or 'default'}")
+          f"settings {settings or 'default'}, reference {ref or 'default'}, car "
+          f"{car or 'default'}")
     t0 = time.perf_counter()
     recorded = base.startswith("recorded")  # recorded, recorded-imu: the recording only
     tracks = ["recording"] if recorded else args.tracks.split(",")
     for track in tracks:
         maxima, left, yaw, speed, tq_rate = [], [], 0.0, 0.0, 0.0
         for seed in range(args.seeds):
-            tr, m = _run(base, track, seed, args.vehicle, settings, ref)
+            tr, m = _run(base, track, seed, args.vehicle, settings, ref, car)
             if m.status == "completed":
                 maxima.append(m.lateral_error_max_m)
                 yaw = max(yaw, m.yaw_error_max_deg)
@@ -106,7 +115,7 @@ def main(argv: list[str] | None = None) -> None:
                 tq_rate = max(tq_rate, m.torque_rate_rms_nmps)
             else:
                 left.append(f"{seed} ({m.status} at {tr.status_time:.1f} s)")
-        ctr, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings, ref)
+        ctr, clean = _run(f"{base}-noise-free", track, 0, args.vehicle, settings, ref, car)
         # the range, and the median and the laps within the 2 cm (the default track's
         # target) over the completed seeds
         span = (f"{100 * min(maxima):.2f}-{100 * max(maxima):.2f} cm (median "
