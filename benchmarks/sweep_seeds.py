@@ -57,7 +57,7 @@ def parse_settings(items: list[str]) -> dict:
 
 
 def _run(name: str, track: str, seed: int, vehicle: str | None, settings: dict, ref: dict,
-         car: dict | None = None):
+         car: dict):
     sc = named_scenario(name, track=None if name.startswith("recorded") else track, seed=seed)
     if ref:  # ReferenceSpec fields (drive_limit, a_lat_max, ...)
         sc = sc.with_(reference=dataclasses.replace(sc.reference, **ref))

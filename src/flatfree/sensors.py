@@ -195,20 +195,24 @@ class _NoiseDraw:
 
     def __init__(self, chans: list[SensorChannel], names: tuple[str, ...], seed: int,
                  dt_control: float) -> None:
-        self._args = (chans, names, seed, dt_control)
+        self._chans = [(i, ch, names[i], math.exp(-dt_control / ch.markov_tau_s)
+                        if ch.markov_std > 0.0 else 0.0)
+                       for i, ch in enumerate(chans)
+                       # nothing drawn: the other channels' streams are their own anyway
+                       if ch.noise_std > 0.0 or ch.markov_std > 0.0]
+        self._seed = seed
+        self._start()
+
+    def _start(self) -> None:
+        """Each channel's streams at their start, no drift state yet (None), step 0."""
         self.first_step = 0
         self._drawn = 0  # control steps drawn so far
-        self._rows = []
-        for i, ch in enumerate(chans):
-            if ch.noise_std == 0.0 and ch.markov_std == 0.0:
-                continue  # nothing drawn: the other channels' streams are their own anyway
-            white, drift = channel_streams(seed, names[i])
-            phi = (math.exp(-dt_control / ch.markov_tau_s) if ch.markov_std > 0.0 else 0.0)
-            self._rows.append([i, ch, white, drift, phi, None])  # None: no drift state yet
+        self._rows = [[i, ch, *channel_streams(self._seed, name), phi, None]
+                      for i, ch, name, phi in self._chans]
 
     def restart(self, noise: np.ndarray) -> None:
         """The streams from their start again, and the first block drawn into ``noise``."""
-        self.__init__(*self._args)
+        self._start()
         self.next(noise)
 
     def next(self, noise: np.ndarray) -> int:

@@ -596,14 +596,17 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
 
 
 @njit(**dict(_JIT_NO_REFCOUNT, forceinline=True))
-def _wheel_pass1(w, x, p, dx, vx, vy, r, z, zd, phi, phid, th, thd, axf, ayf, lf, lr, tf, tr,
-                 re, cl, sl, cr_, sr_, cb):
+def _wheel_pass1(w, x, p, dx, body, sums):
     """Pass 1 of :func:`_rhs_steered` for wheel ``w`` (a constant at each call): suspension,
     load, contact-point velocity and the relaxed slip, whose derivative it writes into ``dx``.
 
-    Returns the load ``F_z``, ``tan`` of the slip angle, the slip ``kappa_eff`` seen by the tyre
-    and the wheel's terms of the heave force, the roll moment and the pitch moment.
+    ``body`` holds the body's states and the car's and steer's constants that pass 1 reads,
+    ``sums`` the suspension's heave force, roll moment and pitch moment over the wheels before
+    this one. Returns the load ``F_z``, ``tan`` of the slip angle, the slip ``kappa_eff`` seen
+    by the tyre and ``sums`` with this wheel's terms added.
     """
+    (vx, vy, r, z, zd, phi, phid, th, thd, axf, ayf, lf, lr, tf, tr, re, cl, sl, cr_, sr_,
+     cb) = body
     front = w < 2
     left = (w % 2) == 0
     if front:
@@ -666,7 +669,7 @@ def _wheel_pass1(w, x, p, dx, vx, vy, r, z, zd, phi, phid, th, thd, axf, ayf, lf
     keff = kap + taud * kdot  # Kelvin-Voigt carcass damping (module docstring, item 5)
     # tan(alpha): the slip angle is atan(v_yw / s(v_xw)), tyre module's slip_angle ([VM] 1.6)
     tan_a = vyw / slip_speed(vxw, p[_VMIN])
-    return fz, tan_a, keff, dfs, yj * (dfs + dfarb), xi * dfs
+    return fz, tan_a, keff, (sums[0] + dfs, sums[1] + yj * (dfs + dfarb), sums[2] + xi * dfs)
 
 
 @njit(**_JIT_NO_REFCOUNT)
@@ -723,9 +726,6 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
     sum_fx = 0.0
     sum_fy = 0.0
     mz = 0.0
-    m_roll_susp = 0.0  # sum y_j (dF_s + dF_arb)
-    m_pitch_susp = 0.0  # sum x_i dF_s
-    f_heave = 0.0  # sum dF_s
 
     # Three passes over the wheels: (1) loads, slips and the relaxed-slip dynamics; (2) the
     # tyre forces of all four wheels at once; (3) body forces and wheel spin. Per-wheel values
@@ -736,30 +736,15 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
     # pass 3's loads waited for the scatters (benchmarks/README.md "The tyre lanes' stores").
     if diag.shape[0] < 4 or diag.shape[1] != NDIAG:
         raise ValueError("rhs_kernel: diag must have shape (4, 6)")
-    fz_0, tan_0, ke_0, dh, dr, dp = _wheel_pass1(0, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
-                                                  thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
-                                                  cr_, sr_, cb)
-    f_heave += dh
-    m_roll_susp += dr
-    m_pitch_susp += dp
-    fz_1, tan_1, ke_1, dh, dr, dp = _wheel_pass1(1, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
-                                                  thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
-                                                  cr_, sr_, cb)
-    f_heave += dh
-    m_roll_susp += dr
-    m_pitch_susp += dp
-    fz_2, tan_2, ke_2, dh, dr, dp = _wheel_pass1(2, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
-                                                  thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
-                                                  cr_, sr_, cb)
-    f_heave += dh
-    m_roll_susp += dr
-    m_pitch_susp += dp
-    fz_3, tan_3, ke_3, dh, dr, dp = _wheel_pass1(3, x, p, dx, vx, vy, r, z, zd, phi, phid, th,
-                                                  thd, axf, ayf, lf, lr, tf, tr, re, cl, sl,
-                                                  cr_, sr_, cb)
-    f_heave += dh
-    m_roll_susp += dr
-    m_pitch_susp += dp
+    body = (vx, vy, r, z, zd, phi, phid, th, thd, axf, ayf, lf, lr, tf, tr, re, cl, sl, cr_, sr_,
+            cb)
+    # sum dF_s (heave), sum y_j (dF_s + dF_arb) (roll), sum x_i dF_s (pitch), wheel after wheel
+    sums = (0.0, 0.0, 0.0)
+    fz_0, tan_0, ke_0, sums = _wheel_pass1(0, x, p, dx, body, sums)
+    fz_1, tan_1, ke_1, sums = _wheel_pass1(1, x, p, dx, body, sums)
+    fz_2, tan_2, ke_2, sums = _wheel_pass1(2, x, p, dx, body, sums)
+    fz_3, tan_3, ke_3, sums = _wheel_pass1(3, x, p, dx, body, sums)
+    f_heave, m_roll_susp, m_pitch_susp = sums
     fz4 = (fz_0, fz_1, fz_2, fz_3)
     tan4 = (tan_0, tan_1, tan_2, tan_3)  # tan of the slip angles
     ke4 = (ke_0, ke_1, ke_2, ke_3)
