@@ -6,6 +6,7 @@ best; nothing here is a test)::
     python benchmarks/tune_natural.py random --n 3000 --rng 10 --out r.jsonl
     python benchmarks/tune_natural.py local --n 2000 --start '{"alpha_lat": 52, ...}' --out l.jsonl
     python benchmarks/tune_natural.py factors --set alpha_lat=52 --set zeta_lat=1.45 ...
+    python benchmarks/tune_natural.py random --fix curvature_term=true ...  # under every one
 
 What it screens, on the `paper` scenario (peugeot406, 10DoF, realistic sensors), with seeds
 that the reviewed bands and the 100-seed tables of benchmarks/README.md do not use:
@@ -55,6 +56,8 @@ LOCAL = {"wn_lat": (4.0, 14.0), "zeta_lat": (0.5, 2.0), "wn_lat_speed": (15.0, 4
          "kp_lon": (0.8, 5.0), "alpha_lon": (0.001, 0.005), "correction_max": (1.5, 8.0),
          "denoise_yaw": (0, 200), "window_lat": (50, 250), "window_lon": (40, 250)}
 SPA_S = 50.0
+#: Settings under every candidate and "the defaults" (``--fix``; e.g. ``curvature_term``).
+FIXED: dict = {}
 _DEFAULTS = MfcNaturalSettings()
 BAD_M = 0.04
 
@@ -64,7 +67,7 @@ def run(track: str, seed: int, settings: dict, duration_s: float | None = None):
     controller's defaults (not over `paper`'s own tuning, NATURAL_SETTINGS, which this search
     found: every candidate and "the defaults" mean MfcNaturalSettings' values)."""
     sc = named_scenario("paper", track=track, seed=seed, duration_s=duration_s)
-    sc = sc.with_(controller_settings=dict(settings))
+    sc = sc.with_(controller_settings={**FIXED, **settings})
     m = compute_metrics(simulate(sc))
     return m.status == "completed", m.lateral_error_max_m
 
@@ -94,13 +97,15 @@ def norisring(settings: dict, seeds, give_up: float = math.inf) -> dict:
     return {"nor_max_m": worst, "nor_runs": len(seeds)}
 
 
-def _draw(rng: np.random.Generator) -> dict:
+def _draw(rng: np.random.Generator, ranges: dict) -> dict:
     s = {}
-    for k, (lo, hi) in RANDOM.items():
+    for k, (lo, hi) in ranges.items():
         if k == "alpha_lat":
             s[k] = round(float(np.exp(rng.uniform(np.log(lo), np.log(hi)))), 1)
         elif isinstance(lo, int):
             s[k] = int(rng.integers(lo, hi + 1))
+            if s[k] == 1:  # a denoiser of 1 sample is not one (the settings refuse it): off
+                s[k] = 0
         else:
             s[k] = round(float(rng.uniform(lo, hi)), 2)
     if rng.random() < 0.5:
@@ -136,6 +141,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--start", default="{}", help="local: the first candidate (JSON)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="factors: the candidate's changes against the defaults")
+    ap.add_argument("--fix", action="append", default=[], metavar="KEY=VALUE",
+                    help="a setting under every candidate and the defaults (all modes)")
+    ap.add_argument("--alpha-range", default="15,60", metavar="LO,HI",
+                    help="random: alpha_lat's range (log-uniform)")
     ap.add_argument("--spa-seeds", default="200,236", help="first,stop of Spa's seeds")
     ap.add_argument("--nor-seeds", default="200,206", help="first,stop of Norisring's seeds")
     ap.add_argument("--max-bad", type=int, default=None, help="random: drop above this")
@@ -145,6 +154,8 @@ def main(argv: list[str] | None = None) -> None:
     spa_seeds = range(*map(int, args.spa_seeds.split(",")))
     nor_seeds = range(*map(int, args.nor_seeds.split(",")))
     rng = np.random.default_rng(args.rng)
+    FIXED.update(parse_settings(args.fix))
+    ranges = {**RANDOM, "alpha_lat": tuple(map(float, args.alpha_range.split(",")))}
 
     if args.mode == "factors":
         new = parse_settings(args.set)
@@ -170,7 +181,7 @@ def main(argv: list[str] | None = None) -> None:
         for _ in range(args.n):
             t0 = time.perf_counter()
             if args.mode == "random":
-                s = _draw(rng)
+                s = _draw(rng, ranges)
                 r = {"settings": s, **spa(s, spa_seeds, max_bad)}
                 if r["spa_runs"] == len(spa_seeds) and r["spa_bad"] <= max_bad:
                     r.update(norisring(s, nor_seeds))

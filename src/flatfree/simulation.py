@@ -85,6 +85,7 @@ from flatfree.controllers.vehicle import (
     VehicleControllerArrays,
     build_flatness,
     build_mfc,
+    lateral_f_hat,
     settings_from_mapping,
     vehicle_step,
     wants_ey_ddot,
@@ -563,7 +564,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
             log[17, n_log] = meas[3]
             log[18, n_log] = me_y
             log[19, n_log] = s_lon[_F_HAT] if kind == 1 or kind == 2 else math.nan
-            log[20, n_log] = s_lat[_F_HAT] if kind == 1 or kind == 2 else math.nan
+            log[20, n_log] = lateral_f_hat(kind, p_lat, s_lat, coef)
             log[21, n_log] = mu_f
             for i in range(4):
                 log[22 + i, n_log] = x[_OMEGA_FL + i] if plant == 0 else math.nan

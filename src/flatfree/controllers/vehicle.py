@@ -552,6 +552,23 @@ class MfcNaturalSettings(_SampleCountSettings):
         loses 3 (0 and 0.5: none), and with every channel at 100 Hz 2 and 5 rad/s lose 1 of 6. Off
         by default (an INS's calibrated bias, 0.01 m/s^2, costs nothing); 0.5 for a raw
         accelerometer.
+    curvature_term : bool
+        Take the path's curvature out of the lateral loop's F: the ultra-local model becomes
+        ``e_y'' = F + alpha (delta - Vx^2 kappa(s) / alpha)``, so F is estimated without
+        ``-Vx^2 kappa`` and the law adds it back at once, ``delta = delta_iPD + Vx^2 kappa /
+        alpha`` (default False: the paper's F, which holds the whole path term). Why: in the
+        Frenet frame ``e_y'' = a_n cos(e_chi) - V^2 kappa cos^2(e_chi) / (1 - kappa e_y) +
+        V' sin(e_chi)``, with ``a_n`` the acceleration normal to the velocity (what the tyres
+        and the steer make) and ``e_chi`` the course error: where the curvature changes, the
+        term ``-V^2 kappa`` changes at once, and an F estimated over a window of past samples
+        follows it late (the window's lag: half of it, 50 ms at 100 samples, for the F of a
+        line fitted to it), which the loop pays in lateral error at every change of curvature.
+        The term is kinematic: the measured speed and the path's curvature at the measured
+        position (the inputs of the yaw damper), no vehicle parameter, so the design stays
+        model-free; beyond the paper, whose F holds it. Where the speed or the curvature is not
+        finite the last finite term is kept. The estimators are fed ``delta_applied - Vx^2
+        kappa / alpha`` of each period, so it needs ``feed_applied`` (benchmarks/README.md
+        "The path's curvature out of F").
     feed_applied : bool
         Feed the estimators the inputs the actuators actually applied (rate limits, the power
         cap, faults, the yaw damper) instead of the controllers' own outputs (default True;
@@ -587,6 +604,7 @@ class MfcNaturalSettings(_SampleCountSettings):
     imu_filter_s: float = 0.005
     observer_wn: float = 20.0
     observer_bias_wn: float = 0.0
+    curvature_term: bool = False
     feed_applied: bool = True
     schedule: str = "path"
 
@@ -606,6 +624,10 @@ class MfcNaturalSettings(_SampleCountSettings):
         if finite("observer_bias_wn", self.observer_bias_wn, "rad/s") < 0.0:
             raise ValueError(f"observer_bias_wn = {self.observer_bias_wn!r} rad/s: must be >= 0")
         boolean("feed_applied", self.feed_applied)
+        boolean("curvature_term", self.curvature_term)
+        if self.curvature_term and not self.feed_applied:
+            raise ValueError("curvature_term = True needs feed_applied = True (the estimators "
+                             "are fed the applied steer less the curvature term)")
         positive("alpha_lon", self.alpha_lon, "(m/s^2)/(N m)")
         positive("kp_lon", self.kp_lon, "1/s")
         positive("alpha_lat", self.alpha_lat, "(m/s^2)/rad")
@@ -811,7 +833,8 @@ class VehicleControllerArrays:
     #                   imu estimator on, filter pole, observer gains l1, l2, then the imu
     #                   estimator's state: filtered e_y'', filtered steer, e_y and e_y'
     #                   estimates, started flag, then the bias gain l3 and the bias estimate
-    #                   (_IMU_* indices)];
+    #                   (_IMU_* indices), steer_min_speed, the curvature term on, and
+    #                   the term of the period running (_CURV_*)];
     #                   mfc-flat a, b = lf m, Iz; flatness a = dt
     f_lon: np.ndarray  # denoiser kernel state of the speed loop's measurement (or a dummy)
     f_lat: np.ndarray  # denoiser kernel state of the lateral loop's measurement (or a dummy)
@@ -825,6 +848,8 @@ class VehicleControllerArrays:
             self.coef[_IMU_STARTED] = 0.0  # the imu estimator restarts from the next sample
         if self.coef.shape[0] > _IMU_B:
             self.coef[_IMU_B] = 0.0  # and forgets the bias of the previous run
+        if self.coef.shape[0] > _CURV_FF:
+            self.coef[_CURV_FF] = 0.0  # no curvature term in the steer held at the start
         for on, ks in ((self.coef[0], self.f_lon), (self.coef[1], self.f_lat),
                        (self.coef[6], self.f_yaw)):
             if on:
@@ -913,7 +938,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                          math.exp(-dt / s.imu_filter_s), (2.0 * w_o + w_b) * dt,
                          (w_o * w_o + 2.0 * w_o * w_b) * dt,
                          0.0, 0.0, 0.0, 0.0, 0.0, w_o * w_o * w_b * dt, 0.0,
-                         s.steer_min_speed])
+                         s.steer_min_speed, float(s.curvature_term), 0.0])
     elif controller == "mfc-flat":
         s2: MfcFlatSettings = settings
         positive("mass", mass, "kg")
@@ -941,8 +966,11 @@ _IMU_ON, _IMU_PHI, _IMU_L1, _IMU_L2 = 18, 19, 20, 21
 _IMU_A, _IMU_U, _IMU_E, _IMU_ED, _IMU_STARTED = 22, 23, 24, 25, 26
 _IMU_L3, _IMU_B = 27, 28  # bias gain, bias estimate (kept across restarts: the bias persists)
 _STEER_MIN_V = 29  # MfcNaturalSettings.steer_min_speed [m/s]
+# MfcNaturalSettings.curvature_term: on; the term Vx^2 kappa / alpha [rad] of the period running
+_CURV_ON, _CURV_FF = 30, 31
 _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
 _UMIN_I, _UMAX_I = int(IPAR.U_MIN), int(IPAR.U_MAX)
+_F_HAT_I = int(IST.F_HAT)
 _K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
 
 
@@ -1053,9 +1081,13 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
     if kind == 0:  # flatness-based (paper Section 2.3), arrays in the lon slots
         return flatness_step(p_lon, s_lon, meas[3], meas[4], meas[5], cref[0], cref[1],
                              y2r, cref[3], cref[4], coef[2], tw_applied, delta_applied)
+    # MfcNaturalSettings.curvature_term: the lateral loop's input is delta - ff, ff = Vx^2
+    # kappa / alpha; ff_run is the term of the period that just ended
+    curv = kind == 2 and coef.shape[0] > _CURV_FF and coef[_CURV_ON] != 0.0
+    ff_run = coef[_CURV_FF] if curv else 0.0
     if coef[5] != 0.0:  # the estimators see what the actuators applied (intelligent.py)
         intelligent_set_applied(p_lon, s_lon, tw_applied)
-        intelligent_set_applied(p_lat, s_lat, delta_applied)
+        intelligent_set_applied(p_lat, s_lat, delta_applied - ff_run)
     vx = meas[3]
     if coef[0] != 0.0 and math.isfinite(vx):
         vx = fir_update(f_lon, vx)  # NOTES.md denoiser (2T - 3d)
@@ -1073,11 +1105,28 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         wn = coef[15] * min(max(coef[16] / max(meas[3], _OUTER_V_MIN), 1.0), coef[17])
         p_lat[IPAR.KP] = wn * wn
         p_lat[IPAR.KD] = 2.0 * coef[14] * wn
-    u_prev = s_lat[_U_I]  # the steer applied over the last period (feed_applied) or commanded
+    ff = ff_run
+    if curv:
+        ff_now = meas[3] * meas[3] * cref[8] / p_lat[_ALPHA]
+        if math.isfinite(ff_now):
+            ff = ff_now  # else the last finite term
+        # the iPD's steer range, in its own input delta - ff
+        p_lat[_UMIN_I] -= ff
+        p_lat[_UMAX_I] -= ff
+    # the lateral loop's input over the last period (feed_applied) or as commanded
+    u_prev = s_lat[_U_I]
     if _imu_on(kind, coef):
         delta = _imu_lateral(p_lat, s_lat, coef, y, meas[6], meas[10], yr, yrd, yrdd, u_prev)
     else:
         delta = intelligent_step(p_lat, s_lat, y, yr, yrd, yrdd)
+    if curv:
+        p_lat[_UMIN_I] += ff
+        p_lat[_UMAX_I] += ff
+        # a step that held its output held the input of the last period: the steer held is
+        # that input plus the last period's term
+        delta += ff if intelligent_law_ran(p_lat, s_lat) else ff_run
+        coef[_CURV_FF] = ff
+        u_prev += ff_run  # the steer applied over the last period
     if coef[4] != 0.0:
         # parameter-free yaw damper (MfcNaturalSettings.yaw_damping): r - Vx kappa(s)
         dr = meas[5] - meas[3] * cref[8]
@@ -1099,8 +1148,22 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # too slow for the steer to move e_y (MfcNaturalSettings.steer_min_speed): hold the
         # steer applied last; the estimators are told so (their window keeps its time base)
         delta = u_prev
-        intelligent_set_applied(p_lat, s_lat, delta)
+        intelligent_set_applied(p_lat, s_lat, delta - ff)
     return tw, delta
+
+
+@njit(**_JIT_STEP)
+def lateral_f_hat(kind, p_lat, s_lat, coef) -> float:
+    """The lateral loop's last F estimate, of ``e_y'' = F + alpha delta`` for the natural-output
+    design whatever ``curvature_term`` (with it, its estimator's F less the term ``alpha ff``,
+    ``Vx^2 kappa``, that the law took out of it), of ``y2' = F + alpha delta`` for the flat
+    outputs; NaN for the flatness controller."""
+    if kind != 1 and kind != 2:
+        return math.nan
+    f = s_lat[_F_HAT_I]
+    if kind == 2 and coef.shape[0] > _CURV_FF and coef[_CURV_ON] != 0.0:
+        f -= p_lat[_ALPHA] * coef[_CURV_FF]
+    return f
 
 
 def f_hat_index() -> int:
@@ -1244,7 +1307,7 @@ class NaturalOutputController:
             (``Track.projector()`` of :mod:`flatfree.tracks` gives it from a pose).
         kappa : float
             Path curvature at the car's position [1/m], > 0 in a left turn (the yaw damper's
-            r - vx kappa).
+            r - vx kappa, and the term vx^2 kappa of ``curvature_term``).
         vx_ref, ax_ref : float
             Speed reference [m/s] and its time derivative [m/s^2], read at the car's arc
             length. Give ``ax_ref``: it is the iP's feedforward; without it the speed lags the
