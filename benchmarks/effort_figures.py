@@ -22,10 +22,6 @@ from flatfree.simulation import simulate
 
 CASES = (("paper", ()), ("paper-noise-free", ()), ("paper-imu", ()),
          ("paper-imu-noise-free", ()), ("paper", ("reference.drive_limit=true",)))
-# `paper` with the controller's defaults instead of its own settings (scenarios.NATURAL_SETTINGS)
-DEFAULTS = tuple(f"controller_settings.{k}={v}" for k, v in (
-    ("alpha_lat", 30.0), ("wn_lat", 8.0), ("zeta_lat", 1.0), ("wn_lat_speed", 30.0),
-    ("wn_lat_ratio", 1.5), ("denoise_yaw", 50)))
 # the steer command's sample-to-sample change over 20 s logged at every 1 ms control step
 JITTER = ("timing.log_dt_s=0.001", "timing.duration_s=20")
 
@@ -48,11 +44,14 @@ def main() -> None:
               f"{m.speed_error_rms_mps:19.3f}")
     print("steer command jitter, RMS of its change per 1 ms control step after 1 s, first 20 s "
           "[rad] (noisy / noise-free)")
-    for label, settings in (("paper", ()), ("paper, the controller's defaults", DEFAULTS)):
+    # `paper` with its own settings (scenarios.NATURAL_SETTINGS) and with the controller's
+    # defaults (no settings over them)
+    for label, defaults in (("paper", False), ("paper, the controller's defaults", True)):
         rms = []
         for name in ("paper", "paper-noise-free"):
-            sc = named_scenario(name, track=args.track, seed=args.seed).with_settings(
-                (*settings, *JITTER))
+            sc = named_scenario(name, track=args.track, seed=args.seed).with_settings(JITTER)
+            if defaults:
+                sc = sc.with_(controller_settings={})
             tr = simulate(sc)
             cmd = tr["steer_cmd"][tr.time > sc.timing.startup_s]
             rms.append(float(np.sqrt(np.mean(np.diff(cmd) ** 2))))

@@ -39,6 +39,19 @@ def run(name: str, t0: float, dur: float, *, seed: int = 0, duration_s: float = 
     return tr, m
 
 
+def run_settings(settings: dict, t0: float, dur: float, *, seed: int = 0,
+                 duration_s: float = 25.0):
+    """:func:`run` of ``paper`` with ``settings`` over the controller's defaults instead of
+    ``paper``'s own (``benchmarks/tune_natural.py robust``)."""
+    gap = Fault(kind="nan_measurement", channel="y", t_start_s=t0, duration_s=dur)
+    sc = named_scenario("paper", duration_s=duration_s, seed=seed)
+    tr = simulate(sc.with_(faults=(gap,), controller_settings=dict(settings)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = compute_metrics(tr)
+    return tr, m
+
+
 def _result(tr, m) -> str:
     if m.status == "completed":
         return f"{100 * m.lateral_error_max_m:.2f} cm"

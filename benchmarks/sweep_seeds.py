@@ -8,6 +8,7 @@ Run as a script::
     python benchmarks/sweep_seeds.py --drive-limit      # the power-aware speed profile
     python benchmarks/sweep_seeds.py --tracks Spa --ref a_lat_max=5.5   # a reference setting
     python benchmarks/sweep_seeds.py --tracks Spa --car brake_balance_front=0.65  # the car
+    python benchmarks/sweep_seeds.py --seeds 100 --first 100    # seeds 100-199
 
 It prints, per track, the range of the max lateral error (after the 1 s start-up, whole laps)
 over the seeds that completed (its median, and how many are within 2 cm), which seeds left the
@@ -77,6 +78,7 @@ def main(argv: list[str] | None = None) -> None:
                     help="paper (default), paper-flatness, ... or recorded / recorded-imu (then "
                          "--tracks is ignored: the recording's reference)")
     ap.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
+    ap.add_argument("--first", type=int, default=0, help="the first seed (default 0)")
     ap.add_argument("--tracks", default=",".join(track_names()),
                     help="comma-separated bundled tracks (default: all)")
     ap.add_argument("--vehicle", default=None, help="replace the scenario's vehicle preset")
@@ -98,7 +100,8 @@ def main(argv: list[str] | None = None) -> None:
     if args.drive_limit:
         ref["drive_limit"] = True
     base = args.scenario.removesuffix("-noise-free")
-    print(f"scenario {base}, seeds 0-{args.seeds - 1}, vehicle {args.vehicle or 'default'}, "
+    last = args.first + args.seeds - 1
+    print(f"scenario {base}, seeds {args.first}-{last}, vehicle {args.vehicle or 'default'}, "
           f"settings {settings or 'default'}, reference {ref or 'default'}, car "
           f"{car or 'default'}")
     t0 = time.perf_counter()
@@ -106,7 +109,7 @@ def main(argv: list[str] | None = None) -> None:
     tracks = ["recording"] if recorded else args.tracks.split(",")
     for track in tracks:
         maxima, left, yaw, speed, tq_rate = [], [], 0.0, 0.0, 0.0
-        for seed in range(args.seeds):
+        for seed in range(args.first, args.first + args.seeds):
             tr, m = _run(base, track, seed, args.vehicle, settings, ref, car)
             if m.status == "completed":
                 maxima.append(m.lateral_error_max_m)

@@ -78,7 +78,10 @@ def test_the_steer_is_held_while_the_window_fills():
     assert rows[n_hold, 1] != 0.05  # the law runs from there
 
 
-def test_a_nonfinite_deviation_holds_the_steer_applied_last():
+def test_a_nonfinite_deviation_holds_the_law_and_keeps_the_term_current():
+    # a lost position holds the iPD's output; the term follows the curvature on (the path
+    # goes on turning while the position is lost): over the gap the steer moves by exactly
+    # the term's change, Vx^2 (kappa_k - kappa_before) / alpha
     s = MfcNaturalSettings(alpha_lat=ALPHA, curvature_term=True)
     c = NaturalOutputController(dt=DT, actuators=ACT, settings=s)
     c.reset()
@@ -86,11 +89,25 @@ def test_a_nonfinite_deviation_holds_the_steer_applied_last():
     for k in range(300):
         _, d = c.step(vx=V, r=V * _kappa(k), e_y=0.001, kappa=_kappa(k), vx_ref=V,
                       applied_steer=d)
-    held = [c.step(vx=V, r=V * _kappa(k), e_y=math.nan, kappa=_kappa(k), vx_ref=V,
-                   applied_steer=d)[1] for k in range(300, 350)]
-    assert held == [d] * 50
+    before = d
+    held = []
+    for k in range(300, 350):
+        _, d = c.step(vx=V, r=V * _kappa(k), e_y=math.nan, kappa=_kappa(k), vx_ref=V,
+                      applied_steer=d)
+        held.append(d)
+    term = [V * V * (_kappa(k) - _kappa(299)) / ALPHA for k in range(300, 350)]
+    assert term[-1] > 1e-3  # the curvature ramps on over the gap
+    assert np.allclose(np.array(held) - before, term, rtol=0.0, atol=1e-12)
+    # ... on a constant curvature that is the steer applied last (to rounding: (d - t) + t)
+    c.reset()
+    d = 0.0
+    for _ in range(300):
+        _, d = c.step(vx=V, r=0.1, e_y=0.001, kappa=0.005, vx_ref=V, applied_steer=d)
+    held = [c.step(vx=V, r=0.1, e_y=math.nan, kappa=0.005, vx_ref=V, applied_steer=d)[1]
+            for _ in range(50)]
+    assert np.allclose(held, d, rtol=0.0, atol=1e-15)
     # ... and a NaN speed keeps the last finite term (no jump by Vx^2 kappa / alpha)
-    _, d2 = c.step(vx=math.nan, r=0.0, e_y=0.001, kappa=_kappa(350), vx_ref=V, applied_steer=d)
+    _, d2 = c.step(vx=math.nan, r=0.1, e_y=0.001, kappa=0.005, vx_ref=V, applied_steer=d)
     assert math.isfinite(d2)
     assert abs(d2 - d) < 0.01
 

@@ -707,19 +707,19 @@ def test_a_car_the_model_free_settings_were_not_tuned_on_is_warned_about(tmp_pat
     for sc in (named_scenario("paper-flatness", vehicle="dallara_av21",
                               duration_s=1.0).with_settings(["controller=mfc-natural"]),
                named_scenario("paper", duration_s=1.0).with_(vehicle="dallara_av21"),
-               # and its estimator changed on the way: 52 is still the peugeot406's
+               # and its estimator changed on the way: 48.9 is still the peugeot406's
                named_scenario("paper", duration_s=1.0).with_(vehicle="dallara_av21")
                .with_settings(["controller_settings.estimator_lat=imu"])):
         with pytest.warns(UserWarning, match=r"alpha_lat at (its default 30 \(the "
-                                             r"peugeot406's\)|52 \(peugeot406's\))") as got:
+                                             r"peugeot406's\)|48.9 \(peugeot406's\))") as got:
             prepare(sc)
         assert any("set controller_settings.alpha_lat = 60" in str(w.message) for w in got)
     # an untuned car's message quotes its steer gain beside the tuned cars' (the algebraic
-    # estimator's: the peugeot406's 52; with the inertial one its 30, the defaults')
+    # estimator's: the peugeot406's 48.9; with the inertial one its 30, the defaults')
     with pytest.warns(UserWarning, match=r"this car's 119; peugeot406: 65, tuned 30; "
                                          r"dallara_av21: 95, tuned 60"):
         prepare(named_scenario("paper-imu", vehicle="bmw320i", duration_s=1.0))
-    with pytest.warns(UserWarning, match=r"this car's 119; peugeot406: 65, tuned 52; "
+    with pytest.warns(UserWarning, match=r"this car's 119; peugeot406: 65, tuned 48.9; "
                                          r"dallara_av21: 95, tuned 60"):
         prepare(named_scenario("paper", vehicle="bmw320i", duration_s=1.0))
     retuned = named_scenario("paper", vehicle="bmw320i", duration_s=1.0).with_settings(

@@ -307,15 +307,19 @@ seed = 0                    # seed of the sensor noise
 # mass = 1600.0
 
 [controller_settings]       # the chosen controller's own settings; empty: its defaults
-alpha_lat = 52.0            # mfc-natural: the peugeot406's tuning with the algebraic
-wn_lat = 7.6                # estimator (flatfree.scenarios.NATURAL_SETTINGS; remove these
-zeta_lat = 1.45             # six lines for another controller, or for the defaults, which
-wn_lat_speed = 40.0         # estimator_lat = "imu" uses)
-wn_lat_ratio = 2.5
-denoise_yaw = 100
+curvature_term = true       # mfc-natural: the peugeot406's tuning with the algebraic
+alpha_lat = 48.9            # estimator (flatfree.scenarios.NATURAL_SETTINGS; remove these
+wn_lat = 5.7                # nine lines for another controller, or for the defaults, which
+zeta_lat = 1.36             # estimator_lat = "imu" uses)
+wn_lat_speed = 0.0
+window_lat = 185
+denoise_lat = 84
+yaw_damping = 0.25
+denoise_yaw = 62
 # flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal)
 # mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat,
 #              wn_lat_speed, wn_lat_ratio (speed schedule), yaw_damping,
+#              curvature_term (-Vx^2 kappa out of F), denoise_lat,
 #              estimator_lat = "imu" (lateral F from the accelerometers; the
 #              paper-imu scenario: the defaults and yaw_damping = 0.2,
 #              denoise_yaw = 20),

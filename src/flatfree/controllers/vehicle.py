@@ -376,9 +376,10 @@ class MfcNaturalSettings(_SampleCountSettings):
     (:data:`flatfree.scenarios.IMU_SETTINGS`), the dallara_av21 (``recorded``) with
     ``alpha_lat`` 60 (:data:`flatfree.scenarios.DALLARA_NATURAL_SETTINGS`: alpha follows the
     car's steer gain; 30 puts the iPD below its stable range on that car, measured), and the
-    peugeot406's ``paper`` (the paper's algebraic estimator) with six of them changed
-    (:data:`flatfree.scenarios.NATURAL_SETTINGS`: ``alpha_lat`` 52 and the gains matched to
-    it, found by a joint search in session 21; Spa 90 laps of 100 instead of 62). The
+    peugeot406's ``paper`` (the paper's algebraic estimator) with ``curvature_term`` on and
+    the lateral loop retuned around it (:data:`flatfree.scenarios.NATURAL_SETTINGS`, a joint
+    search in session 23: every lap of the 7 bundled tracks over 100 seeds within 1.41 cm;
+    with the defaults Spa keeps 62 laps of 100). The
     defaults were chosen by sweeps on the 10DoF plant with the realistic sensors over Norisring,
     Monza, Spa and Budapest, several seeds (worst max lateral error, completion, steer rate);
     the record is benchmarks/README.md "Closed loop"; the figures below are theirs.
@@ -386,8 +387,7 @@ class MfcNaturalSettings(_SampleCountSettings):
     ``wn_lat_speed = 0``, ``correction_max = inf`` and ``steer_min_speed = 0`` are the
     paper's design unchanged (it completes Norisring noise-free at 2.1 cm but leaves the
     track on fast tracks and with noise: see ``yaw_damping``; with these defaults the last two
-    never act on the named scenarios' runs; ``paper``'s tuning reaches the bound briefly, see
-    ``correction_max``).
+    never act on the named scenarios' runs).
 
     Parameters
     ----------
@@ -454,11 +454,11 @@ class MfcNaturalSettings(_SampleCountSettings):
         (``benchmarks/initial_offset.py [--vehicle V]``). On the
         tracks ``|kp e|`` stays below it with these defaults: 100 seeds on each bundled track
         gave the figures of the unbounded law, and the named scenarios' seed-1 laps were the
-        same bit for bit. (``paper``'s tuning, :data:`flatfree.scenarios.NATURAL_SETTINGS`,
-        with wn up to 19 rad/s below 16 m/s, reaches it briefly: Spa's seed-1 path moves by
-        2.4 mm, and over seeds 0-99 it completes 90 Spa laps with it, 87 without; its region
-        of attraction is kept, closing more slowly: benchmarks/README.md "A search for a more
-        robust `paper` tuning".) With the defaults, 3
+        same bit for bit; so are ``paper``'s (:data:`flatfree.scenarios.NATURAL_SETTINGS`:
+        wn 5.7 rad/s, kp e reaches 4 m/s^2 at 12 cm), whose starts off the path come back
+        from the whole grid too. (Session 21's tuning, with wn up to 19 rad/s below 16 m/s,
+        reached it briefly: benchmarks/README.md "A search for a more robust `paper`
+        tuning".) With the defaults, 3
         already moves Spa and Catalunya (65 and 98 of 100 laps, up to 4.50 cm, against 62 and
         97); 6 loses the 5 cm start at 20 m/s (benchmarks/README.md "The bound on the
         proportional correction").
@@ -566,9 +566,11 @@ class MfcNaturalSettings(_SampleCountSettings):
         The term is kinematic: the measured speed and the path's curvature at the measured
         position (the inputs of the yaw damper), no vehicle parameter, so the design stays
         model-free; beyond the paper, whose F holds it. Where the speed or the curvature is not
-        finite the last finite term is kept. The estimators are fed ``delta_applied - Vx^2
-        kappa / alpha`` of each period, so it needs ``feed_applied`` (benchmarks/README.md
-        "The path's curvature out of F").
+        finite the last finite term is kept. A step that holds the iPD's output (a non-finite
+        e_y) keeps the term current, the path turning on while the position is lost; while the
+        window fills the start's steer is held as it is. The estimators are fed
+        ``delta_applied - Vx^2 kappa / alpha`` of each period, so it needs ``feed_applied``
+        (benchmarks/README.md "The path's curvature out of F").
     feed_applied : bool
         Feed the estimators the inputs the actuators actually applied (rate limits, the power
         cap, faults, the yaw damper) instead of the controllers' own outputs (default True;
@@ -1122,9 +1124,10 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
     if curv:
         p_lat[_UMIN_I] += ff
         p_lat[_UMAX_I] += ff
-        # a step that held its output held the input of the last period: the steer held is
-        # that input plus the last period's term
-        delta += ff if intelligent_law_ran(p_lat, s_lat) else ff_run
+        # while the window fills the start's steer is held (the input held is the steer less
+        # the last period's term); a step that holds on a non-finite input keeps the term
+        # current: the path's curvature goes on while the position is lost
+        delta += ff_run if s_lat[_K_I] < p_lat[_L_I] else ff
         coef[_CURV_FF] = ff
         u_prev += ff_run  # the steer applied over the last period
     if coef[4] != 0.0:
@@ -1200,8 +1203,9 @@ class NaturalOutputController:
         range, power cap) applied its previous command.
     settings : MfcNaturalSettings, optional
         Default: ``MfcNaturalSettings()``, the base tuning at 1 kHz (the peugeot406's
-        ``paper`` runs ``MfcNaturalSettings(**natural_settings("peugeot406"))``, more robust
-        with the algebraic estimator: :data:`flatfree.scenarios.NATURAL_SETTINGS`); use
+        ``paper`` runs ``MfcNaturalSettings(**natural_settings("peugeot406"))``, with the
+        curvature term and more accurate with the algebraic estimator:
+        :data:`flatfree.scenarios.NATURAL_SETTINGS`); use
         ``alpha_lat`` of the order of your car's steer gain
         (``natural_settings("dallara_av21")``), and :meth:`MfcNaturalSettings.for_period` at
         another control period.
