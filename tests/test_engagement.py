@@ -93,7 +93,7 @@ def test_the_default_bound_does_not_shape_the_paper_laps(track):
     """The default bound (4 m/s^2 on kp e) against correction_max inf (no bound) on the `paper`
     lap (seed 1, realistic sensors). With the `paper` tuning (flatfree.scenarios.
     NATURAL_SETTINGS, session 23: constant wn 5.7 rad/s, so kp e reaches 4 m/s^2 at 12 cm, and
-    its laps stay within 1.41 cm) the bound is never reached on the tracks: the laps are the
+    its laps stay within 2.11 cm) the bound is never reached on the tracks: the laps are the
     same bit for bit. (Session 21's tuning, wn up to 19 rad/s below 16 m/s, reached it briefly
     and moved Spa's path by 2.4 mm; with the defaults it was never reached either, "The bound
     on the proportional correction".)"""

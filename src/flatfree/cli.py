@@ -314,7 +314,7 @@ zeta_lat = 1.36             # estimator_lat = "imu" uses)
 wn_lat_speed = 0.0
 window_lat = 185
 denoise_lat = 84
-yaw_damping = 0.25
+yaw_damping = 0.35
 denoise_yaw = 62
 # flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal)
 # mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat,

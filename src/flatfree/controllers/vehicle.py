@@ -378,7 +378,7 @@ class MfcNaturalSettings(_SampleCountSettings):
     car's steer gain; 30 puts the iPD below its stable range on that car, measured), and the
     peugeot406's ``paper`` (the paper's algebraic estimator) with ``curvature_term`` on and
     the lateral loop retuned around it (:data:`flatfree.scenarios.NATURAL_SETTINGS`, a joint
-    search in session 23: every lap of the 7 bundled tracks over 100 seeds within 1.41 cm;
+    search in session 23: every lap of the 7 bundled tracks over 100 seeds within 2.11 cm;
     with the defaults Spa keeps 62 laps of 100). The
     defaults were chosen by sweeps on the 10DoF plant with the realistic sensors over Norisring,
     Monza, Spa and Budapest, several seeds (worst max lateral error, completion, steer rate);
