@@ -68,13 +68,17 @@ specific unit):
   channel: 1.6-4.8 cm and one run left against 0.6-1.3 cm (benchmarks/README.md "Closed
   loop", "Acceleration-aided F").
 
-What the noise does (measured, benchmarks/README.md "Closed loop"): the natural-output iPD
-(nu = 2, 100-sample window at 1 kHz) turns 1 mm of white position noise into steer jitter well
-beyond the steer-rate limit (0.4 rad/s for the peugeot406), so with noise the applied steer
-moves at the rate limit most of the time (steer-rate RMS 0.33 rad/s, against 0.06 rad/s
-noise-free); the errors stay small (1.6 cm max on Norisring, seed 0; 1.4-2.0 cm over seeds
-0-9). Without the yaw damper (the paper's design as printed) 1 mm already made it leave Monza, Spa
-and, for half of the seeds, Norisring.
+What the noise does (measured, benchmarks/README.md "Closed loop", "The path's curvature out of
+F"): the natural-output iPD (nu = 2) with the controller's defaults (a 100-sample window at
+1 kHz, no denoiser) turns 1 mm of white position noise into steer jitter well beyond the
+steer-rate limit (0.4 rad/s for the peugeot406), so the applied steer moves at the rate limit
+most of the time (steer-rate RMS 0.33 rad/s, against 0.06 rad/s noise-free; the command's
+change per 1 ms step 0.0094 rad RMS). ``paper``'s settings (:data:`NATURAL_SETTINGS`: the
+curvature term, a 185-sample window and the paper's causal denoiser on e_y) bring that change
+to 0.00055 rad RMS and the steer-rate RMS to 0.18 rad/s (Norisring, seed 0; session 23), with
+max lateral errors of 1.30-1.42 cm there over seeds 0-99. Without the yaw damper (the paper's
+design as printed) 1 mm already made the defaults leave Monza, Spa and, for half of the
+seeds, Norisring.
 
 References
 ----------
