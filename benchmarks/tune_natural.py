@@ -112,7 +112,8 @@ GAPS = ((11.0, 0.2), (12.0, 0.2), (13.0, 0.2))
 
 
 def robust(settings: dict) -> dict:
-    """Starts off the path that do not settle, and position gaps that lose the track."""
+    """Starts off the path that do not settle, and position gaps that lose the track, of
+    ``settings`` over :data:`FIXED` and the controller's defaults."""
     import initial_offset  # benchmarks/
     import position_gap
 
@@ -174,7 +175,8 @@ def main(argv: list[str] | None = None) -> None:
                     help="factors: the candidate's changes against the defaults")
     ap.add_argument("--fix", action="append", default=[], metavar="KEY=VALUE",
                     help="a setting under every candidate and the defaults (all modes)")
-    ap.add_argument("--alpha-range", default="15,60", metavar="LO,HI",
+    ap.add_argument("--alpha-range", default=",".join(map(str, RANDOM["alpha_lat"])),
+                    metavar="LO,HI",
                     help="random: alpha_lat's range (log-uniform)")
     ap.add_argument("--spa-seeds", default="200,236", help="first,stop of Spa's seeds")
     ap.add_argument("--nor-seeds", default="200,206", help="first,stop of Norisring's seeds")
@@ -189,9 +191,13 @@ def main(argv: list[str] | None = None) -> None:
     ranges = {**RANDOM, "alpha_lat": tuple(map(float, args.alpha_range.split(",")))}
 
     if args.mode == "robust":
+        if args.src is None:
+            ap.error("robust needs --from FILE (the candidates of a random or local run)")
         with open(args.src) as f:
             cands = [json.loads(line) for line in f]
         cands = [r for r in cands if r.get("spa_bad") == 0 and "nor_max_m" in r]
+        for r in cands:  # the settings the screen ran under, unless --fix says otherwise
+            r["settings"] = {**r.get("fixed", {}), **r["settings"]}
         cands.sort(key=lambda r: max(r["nor_max_m"] / 0.02, r["spa_max_m"] / 0.04))
         with open(args.out, "a") as f:
             for cand in cands[:args.n]:
@@ -241,6 +247,7 @@ def main(argv: list[str] | None = None) -> None:
                         elites = sorted([*elites, r], key=lambda e: (e["spa_bad"],
                                                                      e.get("spa_max_m", 9.0)))[:8]
             r["wall_s"] = round(time.perf_counter() - t0, 2)
+            r["fixed"] = FIXED  # the settings under the candidate (--fix)
             f.write(json.dumps(r) + "\n")
             f.flush()
     with open(args.out) as f:

@@ -494,14 +494,16 @@ def test_demo_on_a_short_run_writes_report_and_figures(runner, tmp_path):
 
 def test_vehicle_option_retunes_a_file_with_the_defaults(tmp_path):
     """A peugeot406 scenario file whose controller settings are empty (the defaults: the
-    peugeot406's tuning until session 21, as files of the earlier template hold them) is
-    retuned for the new car by --vehicle, as a file with the peugeot406's present tuning is;
-    a file whose settings are the user's own keeps them."""
-    from flatfree.cli import build_scenario
+    peugeot406's tuning until session 21, as files of the earlier template hold them) or
+    session 21's tuning (the template until session 23) is retuned for the new car by
+    --vehicle, as a file with the peugeot406's present tuning is; a file whose settings are
+    the user's own keeps them."""
+    from flatfree.cli import _PEUGEOT_SESSION21, build_scenario
     from flatfree.scenarios import DALLARA_NATURAL_SETTINGS, NATURAL_SETTINGS, named_scenario
 
     base = named_scenario("paper")
-    for settings in ({}, NATURAL_SETTINGS):
+    assert _PEUGEOT_SESSION21 != NATURAL_SETTINGS
+    for settings in ({}, _PEUGEOT_SESSION21, NATURAL_SETTINGS):
         f = tmp_path / "base.toml"
         base.with_(controller_settings=settings).save(f)
         assert build_scenario(str(f), vehicle="dallara_av21").controller_settings == \

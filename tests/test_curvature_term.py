@@ -16,10 +16,16 @@ import numpy as np
 import pytest
 
 from flatfree.actuators import ActuatorParams
+from flatfree.controllers.intelligent import IPAR
 from flatfree.controllers.vehicle import (
+    _CURV_FF,
+    CREF,
+    MEAS,
     MfcNaturalSettings,
     NaturalOutputController,
+    build_mfc,
     lateral_f_hat,
+    vehicle_step,
 )
 
 DT = 0.001
@@ -112,13 +118,77 @@ def test_a_nonfinite_deviation_holds_the_law_and_keeps_the_term_current():
     assert abs(d2 - d) < 0.01
 
 
+def _kernel_step(z, *, vx, e_y, kappa, applied):
+    """One raw vehicle_step (no shell: its clip to max_steer would hide the kernel's)."""
+    meas = np.full(len(MEAS), math.nan)
+    meas[MEAS.VX], meas[MEAS.R], meas[MEAS.E_Y] = vx, 0.0, e_y
+    cref = np.zeros(len(CREF))
+    cref[CREF.VX], cref[CREF.KAPPA] = vx, kappa
+    return vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon, z.f_lat,
+                        z.f_yaw, meas, cref, 0.0, applied)[1]
+
+
+def _arrays(steer0: float = 0.0):
+    s = MfcNaturalSettings(alpha_lat=ALPHA, curvature_term=True, yaw_damping=0.0)
+    return build_mfc("mfc-natural", s, dt=DT, actuators=ACT, steer0=steer0)
+
+
 def test_the_steer_stays_within_its_range():
-    # a curvature whose term alone exceeds the steer range: the law's range is shifted by it
-    s = MfcNaturalSettings(alpha_lat=ALPHA, curvature_term=True)
-    c = NaturalOutputController(dt=DT, actuators=ACT, settings=s)
-    c.reset()
-    steers = [c.step(vx=V, r=0.0, e_y=0.0, kappa=0.2, vx_ref=V)[1] for _ in range(300)]
-    assert max(abs(d) for d in steers) <= ACT.max_steer
+    # a curvature whose term alone (V^2 kappa / alpha = 1.6 rad) exceeds the steer range, the
+    # law's output at its limit and a hold on a lost position that moves the term on: the
+    # kernel's own output stays within the range, and the range itself is kept exactly
+    z = _arrays()
+    lim = (z.p_lat[IPAR.U_MIN], z.p_lat[IPAR.U_MAX])
+    d = 0.0
+    for k in range(400):
+        kappa = 0.2 if k < 300 else 0.1 + 0.001 * k  # the term moves on over the NaN below
+        d = _kernel_step(z, vx=V, e_y=math.nan if k >= 300 else 0.0, kappa=kappa, applied=d)
+        assert -ACT.max_steer <= d <= ACT.max_steer, (k, d)
+    assert d == ACT.max_steer
+    assert (z.p_lat[IPAR.U_MIN], z.p_lat[IPAR.U_MAX]) == lim
+    # a finite but absurd speed does not take the range with it
+    _kernel_step(z, vx=1e10, e_y=0.0, kappa=0.01, applied=d)
+    assert (z.p_lat[IPAR.U_MIN], z.p_lat[IPAR.U_MAX]) == lim
+
+
+def test_the_start_steer_is_held_before_a_first_finite_deviation():
+    # no finite e_y yet on a curve that tightens: the start's steer (a term one period late
+    # would add 0.018 rad a step here, up to the steer's range), and so on while the window
+    # then fills
+    steer0 = 0.05
+    z = _arrays(steer0)
+    out = [_kernel_step(z, vx=30.0, e_y=math.nan, kappa=0.001 * k, applied=steer0)
+           for k in range(50)]
+    out += [_kernel_step(z, vx=30.0, e_y=0.0, kappa=0.05, applied=steer0) for _ in range(50)]
+    assert np.allclose(out, steer0, rtol=0.0, atol=1e-15)  # to rounding: (steer0 - t) + t
+
+
+def test_below_steer_min_speed_the_steer_applied_last_is_held():
+    z = _arrays()
+    d = 0.0
+    for _ in range(200):  # past the window: the law runs at 20 m/s on a curve
+        d = _kernel_step(z, vx=V, e_y=0.001, kappa=0.005, applied=d)
+    assert d != 0.0
+    # slower than steer_min_speed (1 m/s), the curvature and the term changing: held
+    held = [_kernel_step(z, vx=0.5, e_y=0.001, kappa=0.005 + 0.001 * k, applied=d)
+            for k in range(20)]
+    assert np.allclose(held, d, rtol=0.0, atol=1e-15)
+
+
+def test_reset_starts_the_term_again():
+    z = _arrays()
+
+    def run():
+        d, out = 0.0, []
+        for k in range(300):
+            d = _kernel_step(z, vx=V, e_y=0.001 * math.sin(0.01 * k), kappa=_kappa(k), applied=d)
+            out.append(d)
+        return out
+
+    first = run()
+    assert z.coef[_CURV_FF] != 0.0
+    z.reset()
+    assert run() == first
 
 
 def test_the_term_needs_the_applied_steer():

@@ -282,6 +282,11 @@ def vehicles(as_json: bool) -> None:
 # ------------------------------------------------------------------------------------------
 # scenario new
 # ------------------------------------------------------------------------------------------
+#: The peugeot406's algebraic tuning of session 21, as the scenario files written then hold it
+#: (``flatfree run FILE --vehicle V`` retunes it for V as it does the current one).
+_PEUGEOT_SESSION21 = {"alpha_lat": 52.0, "wn_lat": 7.6, "zeta_lat": 1.45, "wn_lat_speed": 40.0,
+                      "wn_lat_ratio": 2.5, "denoise_yaw": 100}
+
 SCENARIO_TEMPLATE = '''\
 # A flatfree scenario: one closed-loop run. Run it with
 #     flatfree run THIS_FILE.toml [--json] [--out DIR]
@@ -585,12 +590,14 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             changes["vehicle"] = vehicle
             natural = _scenarios_module().natural_settings
             if changes.get("controller", sc.controller) == "mfc-natural" and vehicle != sc.vehicle:
-                # the peugeot406's settings before its algebraic tuning (session 21): the
-                # defaults, {}, as a file of the earlier template holds them
-                base_defaults = bundled_name(sc.vehicle) == "peugeot406"
+                # the peugeot406's earlier settings, as files of the earlier templates hold
+                # them: the defaults, {}, before its algebraic tuning (session 21), and that
+                # tuning before the curvature term (session 23)
+                base_earlier = (bundled_name(sc.vehicle) == "peugeot406"
+                                and ctrl_settings in ({}, _PEUGEOT_SESSION21))
                 for imu in (False, True):
                     if ctrl_settings == natural(sc.vehicle, imu=imu) or (
-                            not imu and base_defaults and not ctrl_settings):
+                            not imu and base_earlier):
                         # the base's settings are its car's tuning: take the new car's
                         # (alpha_lat), with the same estimator
                         changes["controller_settings"] = natural(vehicle, imu=imu)

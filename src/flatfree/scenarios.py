@@ -40,11 +40,11 @@ specific unit):
   it as a first- or second-order Gauss-Markov drift, and ``benchmarks/rtk_drift.py`` measures
   what 1 cm of it costs (benchmarks/README.md "A slow position error": the true lateral error
   then follows the receiver's error, 1.0-3.5 cm max for ``paper-imu`` on Norisring and Spa;
-  the algebraic design leaves the track when a first-order drift's correlation time is short,
-  whose increments are a random walk, and with a smooth second-order one completes every
-  Norisring run, 15 of 15, and 12 of 15 on Spa, its three losses on the one seed of the five
-  that leaves Spa without drift too; session 22 on its AMD host, ``paper``'s settings of
-  session 21).
+  ``paper`` with :data:`NATURAL_SETTINGS` (session 23, 5 seeds a case, correlation times 10
+  and 60 s) completes every run with a smooth second-order drift (true error 2.4-4.3 cm) and,
+  with a first-order one, whose increments are a random walk at short time scales, every run
+  but two of Spa's at 10 s (up to 8.9 cm); session 21's settings left the track in every run
+  with a first-order 10 s drift; benchmarks/README.md "The path's curvature out of F").
 - ``psi``: dual-antenna GNSS/INS heading 0.1 deg (1 sigma) [OX] = 1.7e-3 rad, white.
 - ``vx``: wheel-speed based speed (the issue's example): 0.05 m/s (tyre radius and slip errors;
   an engineering estimate). ``vy``: INS velocity 0.02 m/s ([OX] class 0.014-0.02 m/s RMS).
@@ -156,8 +156,9 @@ REALISTIC_SENSORS = SensorSuite({
 #: samples: the F left to estimate changes slowly), the paper's causal denoiser on e_y (84
 #: samples) and the yaw damper's input denoised over 62. Found by a joint search with the term
 #: on (``benchmarks/tune_natural.py random --fix curvature_term=true``, then its ``robust``
-#: mode: starts off the path and 0.2 s gaps in the position; session 23), whose best had k_r
-#: 0.25 s; k_r 0.35 keeps Spa with the drivable profile too (``reference.drive_limit``: 30 of
+#: mode: starts off the path and 0.2 s gaps in the position; session 23); the candidate
+#: chosen there (for its lower control rates and calm steer) had k_r 0.25 s, and k_r 0.35
+#: keeps Spa with the drivable profile too (``reference.drive_limit``: 30 of
 #: 30 laps, 0 of 30 at 0.25) for up to 1 cm more on the default profile (the damper's term
 #: is a disturbance the loop sees one step late). Measured on the 7 bundled tracks
 #: over seeds 0-99: every lap completed, max lateral error 0.90-2.11 cm (Norisring 1.30-1.42,

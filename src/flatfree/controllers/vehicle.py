@@ -1108,13 +1108,15 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         p_lat[IPAR.KP] = wn * wn
         p_lat[IPAR.KD] = 2.0 * coef[14] * wn
     ff = ff_run
+    u_min = p_lat[_UMIN_I]
+    u_max = p_lat[_UMAX_I]
     if curv:
         ff_now = meas[3] * meas[3] * cref[8] / p_lat[_ALPHA]
         if math.isfinite(ff_now):
             ff = ff_now  # else the last finite term
-        # the iPD's steer range, in its own input delta - ff
-        p_lat[_UMIN_I] -= ff
-        p_lat[_UMAX_I] -= ff
+        # the iPD's steer range, in its own input delta - ff (put back as it was, below)
+        p_lat[_UMIN_I] = u_min - ff
+        p_lat[_UMAX_I] = u_max - ff
     # the lateral loop's input over the last period (feed_applied) or as commanded
     u_prev = s_lat[_U_I]
     if _imu_on(kind, coef):
@@ -1122,13 +1124,19 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
     else:
         delta = intelligent_step(p_lat, s_lat, y, yr, yrd, yrdd)
     if curv:
-        p_lat[_UMIN_I] += ff
-        p_lat[_UMAX_I] += ff
+        p_lat[_UMIN_I] = u_min
+        p_lat[_UMAX_I] = u_max
         # while the window fills the start's steer is held (the input held is the steer less
         # the last period's term); a step that holds on a non-finite input keeps the term
         # current: the path's curvature goes on while the position is lost
         delta += ff_run if s_lat[_K_I] < p_lat[_L_I] else ff
-        coef[_CURV_FF] = ff
+        if delta < u_min:  # (x - ff) + ff may round past the range; a hold may move past it
+            delta = u_min
+        elif delta > u_max:
+            delta = u_max
+        # the term of the period that starts; none before a first finite e_y (the estimator
+        # has stored no input yet, its held output is the start's steer itself)
+        coef[_CURV_FF] = ff if s_lat[_K_I] > 0.0 else 0.0
         u_prev += ff_run  # the steer applied over the last period
     if coef[4] != 0.0:
         # parameter-free yaw damper (MfcNaturalSettings.yaw_damping): r - Vx kappa(s)
@@ -1164,7 +1172,8 @@ def lateral_f_hat(kind, p_lat, s_lat, coef) -> float:
     if kind != 1 and kind != 2:
         return math.nan
     f = s_lat[_F_HAT_I]
-    if kind == 2 and coef.shape[0] > _CURV_FF and coef[_CURV_ON] != 0.0:
+    if (kind == 2 and coef.shape[0] > _CURV_FF and coef[_CURV_ON] != 0.0
+            and s_lat[_K_I] >= p_lat[_L_I]):  # (0 until the window is full, as without it)
         f -= p_lat[_ALPHA] * coef[_CURV_FF]
     return f
 
@@ -1282,8 +1291,9 @@ class NaturalOutputController:
         start value, the :meth:`reset`'s ``torque0`` and ``steer0``. A step whose ``e_y`` (or
         lateral reference) is not finite holds the steer applied last, the yaw damper's term
         in it (the damper acts with the iPD's law only; with ``feed_applied = False`` the iPD
-        holds its own output and the damper is added at every step, the warm-up's included);
-        the steer returned is within ``actuators.max_steer``.
+        holds its own output and the damper is added at every step, the warm-up's included;
+        with ``curvature_term`` the held steer follows the change of the term ``vx^2 kappa /
+        alpha`` since); the steer returned is within ``actuators.max_steer``.
 
         Conventions (ISO 8855, as the whole library): body axes at the CoG, x forward, y
         left, z up; the yaw rate, the steer and the curvature are positive to the left
@@ -1380,9 +1390,10 @@ class NaturalOutputController:
         z = self._arrays
         tw, delta = vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon,
                                  z.f_lat, z.f_yaw, m, c, a_tw, a_delta)
-        # a held step (a standstill, a NaN e_y) returns the steer applied last, which the
-        # caller may report beyond the range (applied_steer); in the engine, and for the law's
-        # own outputs, it is within the range already
+        # a held step (a standstill, a NaN e_y) returns the steer applied last (with the
+        # curvature term's change since), which the caller may report beyond the range
+        # (applied_steer); in the engine, and for the law's own outputs, it is within the
+        # range already
         lim = self._act.max_steer
         if delta > lim:
             delta = lim
