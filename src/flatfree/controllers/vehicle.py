@@ -1179,7 +1179,9 @@ def lateral_f_hat(kind, p_lat, s_lat, coef) -> float:
 
 
 def f_hat_index() -> int:
-    """Index of the last F estimate in an intelligent controller's state array."""
+    """Index of the last F estimate in an intelligent controller's state array (with
+    ``curvature_term``, the natural-output loop's F without the path's term: the whole F of
+    ``e_y'' = F + alpha delta`` is :func:`lateral_f_hat`)."""
     return int(IST.F_HAT)
 
 
