@@ -257,6 +257,10 @@ _MB_CY, _MB_CU, _MB_CDY, _MB_CDU = (_ND * _ND + 3 * _ND, _ND * _ND + 4 * _ND,
 # compiled without numba's reference counting (flatfree._vecmath.no_refcount; in the closed loop
 # the increfs and decrefs of the array arguments cost more than the law itself).
 _JIT_STEP = no_refcount({"cache": True})
+# The step and the helpers it calls once a step, inlined by LLVM wherever they are called: into
+# each other, and into the controllers' kernels that call the step (the closed loop's lateral and
+# speed loops; ~2 % of the loop, bit for bit, benchmarks/README.md "Inlined controller steps").
+_JIT_INLINE = dict(_JIT_STEP, forceinline=True)
 
 
 @numba.njit(**_JIT_STEP)
@@ -324,7 +328,7 @@ def intelligent_reset(p: np.ndarray, s: np.ndarray) -> None:
     s[_U] = u0
 
 
-@numba.njit(**_JIT_STEP)
+@numba.njit(**_JIT_INLINE)
 def _slide_moments(p, s, y_new, y_old, u_new, u_old, L):
     """Move the window moments by one sample ("Sliding moments" in :func:`intelligent_step`).
 
@@ -414,7 +418,7 @@ def _exact_moments(p, s, head, L):
     s[_MSINCE] = 0.0
 
 
-@numba.njit(**_JIT_STEP)
+@numba.njit(**_JIT_INLINE)
 def _law(p, s, f_hat, e, e_dot, y_ref_dot, y_ref_ddot, u_prev, de_int):
     """The control law at the estimates ``f_hat``, ``e``, ``e_dot`` (``e_dot`` read for nu = 2
     only), with the limits and conditional integration; the integral moves by ``de_int``.
@@ -462,7 +466,7 @@ def _law(p, s, f_hat, e, e_dot, y_ref_dot, y_ref_ddot, u_prev, de_int):
 @numba.njit(
     "float64(float64[::1], float64[::1], float64, float64, float64, float64)",
     fastmath=False,
-    **_JIT_STEP,
+    **_JIT_INLINE,
 )
 def intelligent_step(
     p: np.ndarray,
