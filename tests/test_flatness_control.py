@@ -155,6 +155,11 @@ def test_gains_are_the_coefficients_of_the_designed_error_polynomials():
     ([-2.0, -3.0], [-4 + 1j, -4 + 1j, -6], "conjugate pairs"),
     ([-2.0, -3.0], [-4, -5, 0.0], "negative real part"),
     ([-2.0, np.nan], [-4, -5, -6], "finite"),
+    # numbers only: numpy would read text as complex numbers; ragged input named too
+    (["-2", "-3"], [-4, -5, -6], r"speed_poles = \['-2', '-3'\]: expected 2 poles \[1/s\] as"),
+    ([-2.0, -3.0], [-4, [-5], -6], "lateral_poles .* as numbers"),
+    ([-2.0, True], [-4, -5, -6], "as numbers"),
+    ({1: 2}, [-4, -5, -6], "as numbers"),
 ])
 def test_gains_from_poles_refuses_bad_poles(speed, lateral, match):
     with pytest.raises(ValueError, match=match):
@@ -728,6 +733,7 @@ def _fp(**kw):
     (dict(cf_scale=0.0), r"cf_scale = 0\.0"),
     (dict(cr_scale=-0.3), r"cr_scale = -0\.3"),
     (dict(derivative="spline"), r"derivative = 'spline'"),
+    (dict(derivative=["model"]), r"derivative = \['model'\]"),  # not 'unhashable type'
     (dict(wheel_accel="measured"), r"wheel_accel = 'measured'"),
     (dict(anti_windup="backcalc"), r"anti_windup = 'backcalc'"),
     (dict(derivative_window=1), r"derivative_window = 1 samples"),

@@ -178,6 +178,11 @@ class ClassicPI:
         (dict(nu=1, alpha=1.0, window=10, dt=0.01, rate_max=0.0), r"rate_max = 0\.0"),
         (dict(nu=1, alpha=1.0, window=10, dt=0.01, estimator="fancy"), r"estimator = 'fancy'"),
         (dict(nu=1, alpha=1.0, window=10, dt=0.01, anti_windup="x"), r"anti_windup = 'x'"),
+        # a list where a name is expected: a named ValueError, not "unhashable type"
+        (dict(nu=1, alpha=1.0, window=10, dt=0.01, estimator=["algebraic"]),
+         r"estimator = \['algebraic'\]"),
+        (dict(nu=2, alpha=1.0, window=10, dt=0.01, derivative=["model"]),
+         r"derivative = \['model'\]"),
     ],
 )
 def test_bad_parameters_raise_valueerror_with_value(kwargs, match):
@@ -403,6 +408,60 @@ def test_set_applied_feeds_the_estimator_with_an_input_changed_after_the_control
         assert clipped > 50
     assert errs[True] < 5e-13  # rounding only: measured 1.8e-14
     assert errs[False] > 0.1
+
+
+def test_step_applied_feeds_the_estimator_as_set_applied_does():
+    """``step(..., applied=)`` is intelligent_set_applied before the step: bit for bit the same
+    outputs as the kernel called by hand; F_hat exact with the clipped input told (the test
+    above), off when not told; a NaN ``applied`` (a lost feedback frame) is the own output."""
+    from flatfree.controllers.intelligent import intelligent_set_applied
+
+    dt, alpha, f0 = 0.01, 1.0, 2.0
+
+    def run(mode):
+        c = IP(alpha=alpha, kp=8.0, dt=dt, window=5)
+        y, ua, out, worst = 0.0, None, [], 0.0
+        for k in range(200):
+            ref = (3.0 * math.sin(3.0 * k * dt), 9.0 * math.cos(3.0 * k * dt))
+            if mode == "kernel" and ua is not None:
+                intelligent_set_applied(c.params_array, c.state_array, ua)
+            applied = {"step": ua, "nan": math.nan if k else None}.get(mode)
+            u = c.step(y, *ref, applied=applied)
+            if c.status.window_full and k > 10:
+                worst = max(worst, abs(c.status.f_hat - f0))
+            out.append(u)
+            ua = min(max(u, -0.3), 0.3)
+            y += (f0 + alpha * ua) * dt
+        return out, worst
+
+    by_step, worst_step = run("step")
+    by_kernel, _ = run("kernel")
+    assert by_step == by_kernel
+    assert worst_step < 5e-13  # rounding only, as above
+    by_none, worst_none = run("none")
+    by_nan, _ = run("nan")
+    assert by_nan == by_none
+    assert worst_none > 0.1
+    with pytest.raises(ValueError, match="applied = 'x'"):
+        IP(alpha=1.0, kp=1.0, dt=dt, window=5).step(0.0, 0.0, applied="x")
+
+
+def test_a_nu1_loop_ignores_the_second_derivative_it_does_not_use():
+    """y_ref_ddot enters the law for nu = 2 only: an iP given NaN there runs its law as with
+    0 (bit for bit); an iPD given NaN holds its output and counts a missing sample."""
+    def run(cls, ddot, **kw):
+        c = cls(alpha=2.0, kp=5.0, dt=0.01, window=10, **kw)
+        y, out = 0.0, []
+        for _ in range(100):
+            u = c.step(y, 1.0, 0.0, ddot)
+            out.append(u)
+            y += 0.01 * 2.0 * u
+        return out, c.status
+
+    out_nan, st = run(IP, math.nan)
+    assert out_nan == run(IP, 0.0)[0] and st.n_nonfinite == 0 and out_nan[-1] != 0.0
+    out_nan, st = run(IPD, math.nan, kd=4.0)
+    assert st.n_nonfinite == 100 and set(out_nan) == {0.0}  # warm-up steps counted too
 
 
 def test_rate_limit_and_saturation_are_respected():

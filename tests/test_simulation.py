@@ -716,6 +716,31 @@ def test_natural_output_controller_holds_limits_and_refuses_bad_input():
         NaturalOutputController(dt=0.0, actuators=act)
     with pytest.raises(ValueError, match="steer0 = nan"):
         c.reset(steer0=math.nan)
+    # the actuators' range: degrees given as radians, a torque beyond the brakes
+    with pytest.raises(ValueError, match=r"steer0 = 5\.0 rad: must lie in \[-0\.6"):
+        c.reset(steer0=5.0)
+    with pytest.raises(ValueError, match=r"torque0 = -1000000\.0 N m: must lie in"):
+        c.reset(torque0=-1e6)
+
+
+def test_natural_output_controller_takes_a_nan_applied_value_as_unknown():
+    """A lost feedback frame (NaN applied_steer / applied_torque) is the default's model of
+    the actuators, bit for bit: not a third behaviour."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import NaturalOutputController
+    from flatfree.vehicles import load_vehicle
+
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+
+    def run(applied):
+        c = NaturalOutputController(dt=0.001, actuators=act)
+        return [c.step(vx=20.0, r=0.01 * math.sin(0.01 * k), e_y=0.05 * math.cos(0.003 * k),
+                       kappa=0.002, vx_ref=21.0, applied_steer=applied,
+                       applied_torque=applied) for k in range(400)]
+
+    none = run(None)
+    assert run(math.nan) == none
+    assert run(0.0) != none  # the applied values are used: the comparison can fail
 
 
 def test_a_curve_beyond_the_steer_lock_is_warned_about():

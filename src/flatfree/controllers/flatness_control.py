@@ -269,7 +269,14 @@ class FlatnessGains:
 
 
 def _real_poly(poles, name: str, n: int) -> np.ndarray:
-    arr = np.atleast_1d(np.asarray(poles, dtype=np.complex128))
+    # numbers only: numpy would read text as a complex number ('-2' -> -2), and a ragged or
+    # mapping argument would raise its own, unnamed, error
+    items = np.asarray(poles if isinstance(poles, (list, tuple, np.ndarray)) else [poles],
+                       dtype=object)
+    if items.ndim != 1 or not all(isinstance(p, (int, float, complex, np.number))
+                                  and not isinstance(p, (bool, np.bool_)) for p in items):
+        raise ValueError(f"{name} = {poles!r}: expected {n} poles [1/s] as numbers")
+    arr = items.astype(np.complex128)
     if arr.shape != (n,):
         raise ValueError(f"{name} = {poles!r}: expected {n} poles [1/s]")
     if not np.all(np.isfinite(arr)):
@@ -679,7 +686,8 @@ class FlatnessControlParams:
         positive("cr_scale", self.cr_scale, "-")
         for name, codes in (("derivative", DERIVATIVE_CODES), ("wheel_accel", WHEEL_ACCEL_CODES),
                             ("anti_windup", ANTI_WINDUP_CODES)):
-            if getattr(self, name) not in codes:
+            v = getattr(self, name)
+            if not isinstance(v, str) or v not in codes:
                 raise ValueError(
                     f"{name} = {getattr(self, name)!r}: must be one of {sorted(codes)}"
                 )
@@ -1027,7 +1035,8 @@ class FlatnessController(CompiledController):
     Examples
     --------
     >>> import numpy as np
-    >>> from flatfree.models.bicycle3dof import Bicycle3DoFParams
+    >>> from flatfree import (Bicycle3DoFParams, FlatnessController, FlatnessControlParams,
+    ...                       flat_reference, gains_from_poles)
     >>> p = Bicycle3DoFParams(m=1500.0, iz=2620.0, lf=1.08, lr=1.62, cf=9.8e4, cr=7.4e4,
     ...                       wheel_radius=0.31, wheel_inertia_front=0.0,
     ...                       wheel_inertia_rear=0.0)

@@ -537,7 +537,9 @@ def intelligent_step(
     k = int(s[_K])
 
     y_ok = math.isfinite(y)
-    ref_ok = math.isfinite(y_ref) and math.isfinite(y_ref_dot) and math.isfinite(y_ref_ddot)
+    # y_ref_ddot enters the law for nu = 2 only: a nu = 1 loop does not miss it
+    ref_ok = (math.isfinite(y_ref) and math.isfinite(y_ref_dot)
+              and (nu == 1 or math.isfinite(y_ref_ddot)))
 
     if not y_ok and k == 0:
         # nothing known yet: hold, store nothing (the window starts at the first finite y)
@@ -782,8 +784,8 @@ class IntelligentParams:
     derivative : str
         Source of ``e'`` for nu = 2: ``"algebraic"`` (default) or ``"model"``.
     derivative_window : int or None
-        Samples of the ``e'`` estimator (nu = 2 only, ignored for nu = 1); None: ``window``.
-        ``>= 2`` (algebraic) or ``>= 3`` (model).
+        Samples of the ``e'`` estimator (nu = 2 only: unused for nu = 1, though still checked);
+        None: ``window``. ``>= 2`` (algebraic) or ``>= 3`` (model).
     u_min, u_max : float
         Actuator limits, u-unit (infinite: none).
     rate_max : float
@@ -840,15 +842,15 @@ class IntelligentParams:
                 raise ValueError(f"{name} = {v!r} {unit}: must be >= 0")
         if self.nu == 1 and self.kd != 0.0:
             raise ValueError(f"kd = {self.kd!r} 1/s: must be 0 for nu = 1 (iP, iPI)")
-        if self.estimator not in ESTIMATOR_CODES:
+        if not isinstance(self.estimator, str) or self.estimator not in ESTIMATOR_CODES:
             raise ValueError(
                 f"estimator = {self.estimator!r}: must be one of {sorted(ESTIMATOR_CODES)}"
             )
-        if self.derivative not in DERIVATIVE_CODES:
+        if not isinstance(self.derivative, str) or self.derivative not in DERIVATIVE_CODES:
             raise ValueError(
                 f"derivative = {self.derivative!r}: must be one of {sorted(DERIVATIVE_CODES)}"
             )
-        if self.anti_windup not in ANTI_WINDUP_CODES:
+        if not isinstance(self.anti_windup, str) or self.anti_windup not in ANTI_WINDUP_CODES:
             raise ValueError(
                 f"anti_windup = {self.anti_windup!r}: must be one of {sorted(ANTI_WINDUP_CODES)}"
             )
@@ -1117,19 +1119,28 @@ class IntelligentController(CompiledController):
         intelligent_reset(self._p, self._s)
 
     def step(
-        self, y: float, y_ref: float, y_ref_dot: float = 0.0, y_ref_ddot: float = 0.0
+        self, y: float, y_ref: float, y_ref_dot: float = 0.0, y_ref_ddot: float = 0.0, *,
+        applied: float | None = None,
     ) -> float:
         """One sample: measurement ``y`` at ``t_k`` and the reference; returns the applied ``u_k``.
+
+        ``applied`` (u-unit, optional) is the input actually applied over the last sample, when
+        something after the controller changed its output: an actuator's lag, range or rate
+        limit the controller does not know, a fault. The F estimator must see the applied input
+        (module docstring; :func:`intelligent_set_applied`), and the rate limit then acts from
+        it. ``None``, or a non-finite value (a lost feedback frame), takes the controller's own
+        last output; before the first step it is ignored.
 
         Until the estimator's window is full (its first ``window - 1`` samples) the output is
         the start value ``u0`` (a bumpless start, module docstring), not the law's.
         See :func:`intelligent_step`. Each argument must be one real number (``ValueError``
-        naming it otherwise: text, ``None``, an array); a non-finite ``y`` or reference is a
-        missing sample (the previous output is held, module docstring). The returned output is
-        always finite: should the law overflow (values of the order of 1e300 in ``y``, the
-        reference, or a sample still in the window), the step raises ``ValueError`` naming the
-        inputs, after resetting the controller (as :meth:`reset`: the window held the
-        overflowed values, which would make every later output NaN).
+        naming it otherwise: text, ``None``, an array); a non-finite ``y`` or reference
+        (``y_ref_ddot`` for nu = 2 only) is a missing sample (the previous output is held,
+        module docstring). The returned output is always finite: should the law overflow
+        (values of the order of 1e300 in ``y``, the reference, or a sample still in the
+        window), the step raises ``ValueError`` naming the inputs, after resetting the
+        controller (as :meth:`reset`: the window held the overflowed values, which would make
+        every later output NaN).
         """
         # the common path (floats) costs one type test per argument (_shell docstring)
         y = y if isinstance(y, float) else real("y", y)
@@ -1138,6 +1149,10 @@ class IntelligentController(CompiledController):
             y_ref_dot = real("y_ref_dot", y_ref_dot)
         if not isinstance(y_ref_ddot, float):
             y_ref_ddot = real("y_ref_ddot", y_ref_ddot)
+        if applied is not None:
+            if not isinstance(applied, float):
+                applied = real("applied", applied)
+            intelligent_set_applied(self._p, self._s, applied)  # non-finite: ignored there
         u = intelligent_step(self._p, self._s, y, y_ref, y_ref_dot, y_ref_ddot)
         if not math.isfinite(u):  # the law overflowed (a finite u0 is always held)
             self.reset()

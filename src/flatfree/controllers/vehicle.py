@@ -91,6 +91,7 @@ from flatfree._validate import (
     as_real,
     boolean,
     finite,
+    in_range,
     nonnegative,
     positive,
     positive_or_inf,
@@ -1272,9 +1273,11 @@ class NaturalOutputController:
     def reset(self, *, steer0: float = 0.0, torque0: float = 0.0) -> None:
         """Fresh estimators; ``steer0`` [rad] and ``torque0`` [N m] are the actuators' positions,
         held until the estimator windows are full (``window_lon`` / ``window_lat`` samples,
-        100 each by default)."""
-        steer0 = finite("steer0", steer0, "rad")
-        torque0 = finite("torque0", torque0, "N m")
+        100 each by default). Each within the actuators' range (``ValueError`` otherwise:
+        ``|steer0| <= max_steer``, ``-max_brake_torque <= torque0 <= max_drive_torque``)."""
+        a = self._act
+        steer0 = in_range("steer0", steer0, -a.max_steer, a.max_steer, "rad")
+        torque0 = in_range("torque0", torque0, -a.max_brake_torque, a.max_drive_torque, "N m")
         self._arrays = build_mfc("mfc-natural", self._settings, dt=self._dt,
                                  actuators=self._act, steer0=steer0, torque0=torque0)
         self._act_s = actuator_state(self._act, self._dt, steer0=steer0, torque0=torque0)
@@ -1333,9 +1336,10 @@ class NaturalOutputController:
             Lateral-deviation reference and its derivatives (0: follow the path).
         applied_torque, applied_steer : float, optional
             What the actuators applied over the last period, if known (the estimators must see
-            the applied input); default: the previous command through the model of
-            ``actuators`` over one period (at the speed measured then). A NaN measurement is
-            handled as in the engine (the last output is held, the window keeps its time base).
+            the applied input); ``None`` (default) or a non-finite value (a lost feedback
+            frame): the previous command through the model of ``actuators`` over one period
+            (at the speed measured then). A NaN measurement is handled as in the engine (the
+            last output is held, the window keeps its time base).
         e_y_ddot : float, optional
             Measured second derivative of the lateral deviation [m/s^2], from an inertial
             unit (:func:`flatfree.tracks.lateral_deviation_acceleration`); used with
@@ -1375,8 +1379,11 @@ class NaturalOutputController:
         vx_then = vx if math.isnan(self._vx_prev) else self._vx_prev
         model_tw, model_delta = actuate_step(prev[0], prev[1], vx_then, self._act_p,
                                              self._act_s)
-        a_tw = model_tw if applied_torque is None else applied_torque
-        a_delta = model_delta if applied_steer is None else applied_steer
+        # a non-finite applied value (a lost feedback frame) counts as unknown: the model's
+        a_tw = (model_tw if applied_torque is None or not math.isfinite(applied_torque)
+                else applied_torque)
+        a_delta = (model_delta if applied_steer is None or not math.isfinite(applied_steer)
+                   else applied_steer)
         m = self._meas
         m[_M_VX] = vx
         m[_M_R] = r
@@ -1413,7 +1420,9 @@ class NaturalOutputController:
 
     def _overflowed(self, tw: float, delta: float, inputs: dict) -> None:
         """Reset at the last finite commands and raise (:meth:`step`, Raises)."""
-        torque0, steer0 = float(self._prev[0]), float(self._prev[1])
+        a = self._act  # (within the ranges reset checks: the commands are, to round-off)
+        torque0 = min(max(float(self._prev[0]), -a.max_brake_torque), a.max_drive_torque)
+        steer0 = min(max(float(self._prev[1]), -a.max_steer), a.max_steer)
         self.reset(steer0=steer0, torque0=torque0)
         raise nonfinite_command(
             type(self).__name__, {"torque": tw, "steer": delta}, inputs,
