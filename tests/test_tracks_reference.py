@@ -547,6 +547,12 @@ def test_make_reference_takes_a_mapping_of_speed_limits():
     (dict(laps="2"), r"laps = '2': must be an integer >= 1"),
     (dict(laps=None), r"laps = None: must be an integer >= 1"),
     (dict(speed=None, vehicle="peugeot406"), r"vehicle = 'peugeot406': expected VehicleParams"),
+    # a drive too long to tabulate is refused before numpy's memory error (a near-zero limit,
+    # a huge lap count): the circle of radius 40 m at a_lat 1e-12 m/s^2, v = sqrt(a R), takes
+    # 2 pi R / v = 3.974e7 s a lap
+    (dict(speed=T.SpeedLimits(a_lat_max=1e-12)),
+     r"would last 3\.974e\+07 s \(1 lap\(s\) of .* more than 10,000,000 samples .*=1e-12"),
+    (dict(laps=10**9), r"1000000000 lap\(s\) of 25\.13 s.*laps = 1000000000 too many"),
 ])
 def test_make_reference_refuses_bad_arguments_naming_them(kwargs, message):
     args = {"track": T.circle_track(40.0), "speed": 10.0, **kwargs}

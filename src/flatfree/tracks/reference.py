@@ -82,6 +82,11 @@ class RS(enum.IntEnum):
 
 _NAMES = tuple(m.name.lower() for m in RS)
 N_RS = len(RS)
+#: The most samples a reference's table may take (:func:`make_reference`; 17 columns of 8 bytes:
+#: 1.4 GB, 2.8 h at the closed loop's 1 ms). A longer drive comes of a speed limit near zero
+#: (``a_lat_max`` or ``mu`` of 1e-12, say) or of a huge lap count: refused with a ValueError
+#: before the allocation, instead of numpy's memory error.
+MAX_REFERENCE_SAMPLES = 10_000_000
 #: Below this speed [m/s] the linear-tyre slip angles (V / Vx) are singular; the 3DoF reference
 #: states use the quasi-steady values there (engineering choice, documented in the function).
 V_LOW = 0.5
@@ -359,6 +364,12 @@ def make_reference(
     else:
         prof = constant_speed_profile(line, speed)
     total = prof.duration * laps
+    if not total / dt < MAX_REFERENCE_SAMPLES:
+        raise ValueError(
+            f"the reference would last {total:.4g} s ({laps} lap(s) of {prof.duration:.4g} s) "
+            f"at dt = {dt!r} s, more than {MAX_REFERENCE_SAMPLES:,} samples "
+            f"({MAX_REFERENCE_SAMPLES * N_RS * 8 / 1e9:.1f} GB): the speed (speed = {speed!r}) "
+            f"is too low or laps = {laps} too many")
     n = int(math.floor(total / dt + 1e-9)) + 1
     if n < 2:
         raise ValueError(f"dt = {dt!r} s: longer than the drive ({total:.3g} s)")
