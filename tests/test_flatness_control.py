@@ -697,6 +697,15 @@ def test_reset_then_same_inputs_gives_identical_outputs():
     assert np.all(np.isfinite(a)) and st_a.code == FCS.ok
     ctrl.reset()
     assert ctrl.status.integral1 == 0.0 and ctrl.status.tw == 0.0
+    # the actuators' positions at the start: a first measurement that is not finite holds them
+    # (not 0), the hand-over's held steer starts there; the law's steps after are unchanged
+    ctrl.reset(steer0=0.02, torque0=50.0)
+    held = ctrl.step([math.nan, 0.0, 0.0], t[0])
+    assert held.tolist() == [50.0, 0.02] and ctrl.status.code == FCS.bad_measurement
+    ctrl.reset(steer0=0.02, torque0=50.0)
+    np.testing.assert_array_equal(go(), a)  # applied from the second step on: the same law
+    with pytest.raises(ValueError, match="steer0 = nan rad"):
+        ctrl.reset(steer0=math.nan)
 
 
 def test_shell_step_equals_the_compiled_step():

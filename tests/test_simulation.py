@@ -723,6 +723,36 @@ def test_natural_output_controller_holds_limits_and_refuses_bad_input():
         c.reset(torque0=-1e6)
 
 
+def test_natural_output_controller_status_tells_a_held_steer_and_the_whole_f():
+    """status.steer_held: the window's filling, a NaN e_y, the standstill hold; law steps not.
+    f_lat is the lateral F of e_y'' = F + alpha delta: the iPD's own F without the curvature
+    term, that F less vx^2 kappa (the term alpha * vx^2 kappa / alpha) with it."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.controllers.vehicle import MfcNaturalSettings, NaturalOutputController
+    from flatfree.vehicles import load_vehicle
+
+    act = ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    for curv in (False, True):
+        settings = MfcNaturalSettings(curvature_term=curv, feed_applied=True)
+        c = NaturalOutputController(dt=0.001, actuators=act, settings=settings)
+        assert c.status.steer_held and c.status.lateral.samples == 0
+        held = []
+        for k in range(150):
+            c.step(vx=20.0, r=0.1, e_y=0.01 + 1e-5 * k, kappa=0.005, vx_ref=20.0)
+            held.append(c.status.steer_held)
+        assert held == [True] * 99 + [False] * 51  # window_lat 100: the law from the 100th
+        st = c.status
+        term = 20.0**2 * 0.005 if curv else 0.0
+        assert st.f_lat == pytest.approx(st.lateral.f_hat - term, rel=0, abs=1e-12)
+        assert st.lateral.window_full and st.speed.window_full
+        c.step(vx=20.0, r=0.1, e_y=math.nan, kappa=0.005, vx_ref=20.0)
+        assert c.status.steer_held and c.status.lateral.nonfinite
+        c.step(vx=0.5, r=0.0, e_y=0.01, kappa=0.005, vx_ref=20.0)  # below steer_min_speed
+        assert c.status.steer_held and not c.status.lateral.nonfinite
+        c.step(vx=20.0, r=0.1, e_y=0.01, kappa=0.005, vx_ref=20.0)
+        assert not c.status.steer_held
+
+
 def test_natural_output_controller_takes_a_nan_applied_value_as_unknown():
     """A lost feedback frame (NaN applied_steer / applied_torque) is the default's model of
     the actuators, bit for bit: not a third behaviour."""

@@ -1066,9 +1066,16 @@ class FlatnessController(CompiledController):
         """The followed reference."""
         return self._reference
 
-    def reset(self) -> None:
-        """Back to the state right after construction."""
+    def reset(self, *, steer0: float = 0.0, torque0: float = 0.0) -> None:
+        """Back to the state right after construction; ``steer0`` [rad] and ``torque0`` [N m]
+        are the actuators' positions, returned by a step that holds before any law step (a
+        first measurement that is not finite) and the start of the anti-windup's comparison
+        (as :class:`~flatfree.controllers.vehicle.NaturalOutputController`'s ``reset``)."""
+        steer0 = finite("steer0", steer0, "rad")
+        torque0 = finite("torque0", torque0, "N m")
         flatness_reset(self._p, self._s)
+        self._s[_TW] = torque0
+        self._s[_DE] = steer0
 
     def step(self, x, t: float, applied=None) -> np.ndarray:
         """One sample: measured state ``x = [vx, vy, r]`` at time ``t``; returns ``[tw, delta]``.

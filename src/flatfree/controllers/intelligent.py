@@ -1092,6 +1092,23 @@ class IntelligentStatus:
     u: float
 
 
+def intelligent_status(p: np.ndarray, s: np.ndarray) -> IntelligentStatus:
+    """The :class:`IntelligentStatus` of the state array ``s`` (parameters ``p``)."""
+    return IntelligentStatus(
+        samples=int(s[_K]),
+        window_full=int(s[_K]) >= int(p[_L]),
+        n_nonfinite=int(s[_NNF]),
+        nonfinite=bool(s[_NF]),
+        saturated=int(s[_SAT]),
+        rate_limited=int(s[_RL]),
+        f_hat=float(s[_FH]),
+        error=float(s[_E]),
+        error_rate=float(s[_ED]),
+        integral=float(s[_INT]),
+        u=float(s[_U]),
+    )
+
+
 class IntelligentController(CompiledController):
     """Python shell over :func:`intelligent_step` (one SISO loop; use one instance per loop).
 
@@ -1165,21 +1182,7 @@ class IntelligentController(CompiledController):
     @property
     def status(self) -> IntelligentStatus:
         """Counters and flags after the last step (:class:`IntelligentStatus`)."""
-        s = self._s
-        L = int(self._p[_L])
-        return IntelligentStatus(
-            samples=int(s[_K]),
-            window_full=int(s[_K]) >= L,
-            n_nonfinite=int(s[_NNF]),
-            nonfinite=bool(s[_NF]),
-            saturated=int(s[_SAT]),
-            rate_limited=int(s[_RL]),
-            f_hat=float(s[_FH]),
-            error=float(s[_E]),
-            error_rate=float(s[_ED]),
-            integral=float(s[_INT]),
-            u=float(s[_U]),
-        )
+        return intelligent_status(self._p, self._s)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self._params!r})"

@@ -112,9 +112,11 @@ from flatfree.controllers.intelligent import (
     IPAR,
     IST,
     IntelligentParams,
+    IntelligentStatus,
     intelligent_law_ran,
     intelligent_override,
     intelligent_set_applied,
+    intelligent_status,
     intelligent_step,
     intelligent_step_external,
     make_state,
@@ -129,6 +131,7 @@ __all__ = [
     "MfcFlatSettings",
     "MfcNaturalSettings",
     "NaturalOutputController",
+    "NaturalOutputStatus",
     "FlatnessSettings",
     "SCHEDULES",
     "ESTIMATORS_LAT",
@@ -1186,6 +1189,32 @@ def f_hat_index() -> int:
     return int(IST.F_HAT)
 
 
+@dataclass(frozen=True, slots=True)
+class NaturalOutputStatus:
+    """Snapshot of a :class:`NaturalOutputController` after its last step.
+
+    Attributes
+    ----------
+    speed : IntelligentStatus
+        The iP on the speed (y = vx [m/s], u = wheel torque [N m]).
+    lateral : IntelligentStatus
+        The iPD on the lateral deviation (y = e_y [m], u = steer [rad]). With
+        ``curvature_term`` its input is the steer less the path's term ``vx^2 kappa / alpha``
+        and its ``f_hat`` the F without the term; ``f_lat`` below is the whole F.
+    f_lat : float
+        The F of ``e_y'' = F + alpha delta`` [m/s^2] (0 until the window is full).
+    steer_held : bool
+        The last steer is not the law's: the window still filling (the start's steer held), a
+        non-finite ``e_y`` or lateral reference (the steer applied last held), or a speed
+        below ``steer_min_speed`` (the standstill hold).
+    """
+
+    speed: IntelligentStatus
+    lateral: IntelligentStatus
+    f_lat: float
+    steer_held: bool
+
+
 class NaturalOutputController:
     """The paper's model-free controller on natural outputs for a user's own loop.
 
@@ -1417,6 +1446,18 @@ class NaturalOutputController:
         prev[1] = delta
         self._vx_prev = vx
         return tw, delta
+
+    @property
+    def status(self) -> NaturalOutputStatus:
+        """The loops' counters, flags and estimates after the last step
+        (:class:`NaturalOutputStatus`)."""
+        z = self._arrays
+        below = self._vx_prev < self._settings.steer_min_speed  # (False before a step: NaN)
+        return NaturalOutputStatus(
+            speed=intelligent_status(z.p_lon, z.s_lon),
+            lateral=intelligent_status(z.p_lat, z.s_lat),
+            f_lat=float(lateral_f_hat(z.kind, z.p_lat, z.s_lat, z.coef)),
+            steer_held=below or not intelligent_law_ran(z.p_lat, z.s_lat))
 
     def _overflowed(self, tw: float, delta: float, inputs: dict) -> None:
         """Reset at the last finite commands and raise (:meth:`step`, Raises)."""
