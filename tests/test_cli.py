@@ -14,6 +14,7 @@ import math
 import re
 import shutil
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -139,6 +140,35 @@ def test_scenario_new_writes_a_valid_commented_template(runner, tmp_path):
     assert f.read_text() == SCENARIO_TEMPLATE
     res = _invoke(runner, ["scenario", "new", str(tmp_path / "nope" / "s.toml")])
     assert res.exit_code == 2 and "does not exist" in res.stderr
+
+
+def test_scenario_new_a_file_it_cannot_write_is_one_error_line(runner, tmp_path):
+    """An OSError of the write (a folder that is a file, a full device) is an Error: line
+    naming the file and the reason, exit 2, not a traceback."""
+    (tmp_path / "f").write_text("")
+    target = tmp_path / "f" / "s.toml"  # the folder is a file
+    res = _invoke(runner, ["scenario", "new", str(target)])
+    assert res.exit_code == 2, res.output
+    assert res.stderr.startswith("Error: ") and str(target) in res.stderr
+    assert "Not a directory" in res.stderr and len(res.stderr.splitlines()) == 1
+    if Path("/dev/full").exists():  # Linux: every write fails with ENOSPC
+        res = _invoke(runner, ["scenario", "new", "/dev/full", "--force"])
+        assert res.exit_code == 2, res.output
+        assert "/dev/full" in res.stderr and "No space left" in res.stderr
+
+
+def test_run_a_file_it_cannot_read_names_the_file(runner, tmp_path):
+    """A folder or a non-UTF-8 file given as the scenario or the --vehicle: one Error: line
+    naming the file and the reason, exit 2."""
+    (tmp_path / "dir.toml").mkdir()
+    (tmp_path / "bin.toml").write_bytes(b"\xff\xfe\x00bad")
+    for name, reason in (("dir.toml", "Is a directory"), ("bin.toml", "not a UTF-8")):
+        f = str(tmp_path / name)
+        for args in ([f], ["--vehicle", f, "--duration", "0.01"]):
+            res = _invoke(runner, ["run", *args])
+            assert res.exit_code == 2, res.output
+            assert res.stderr.startswith("Error: ") and len(res.stderr.splitlines()) == 1
+            assert f in res.stderr and reason in res.stderr, res.stderr
 
 
 def test_template_is_the_paper_scenario_as_it_says():

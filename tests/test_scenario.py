@@ -331,6 +331,22 @@ def test_missing_file():
         load_scenario("/nonexistent/x.toml")
 
 
+def test_a_file_that_cannot_be_read_is_a_value_error_naming_it(tmp_path):
+    """A folder, or bytes that are not UTF-8, as a scenario file or a vehicle file: a
+    ValueError naming the file (not an OSError, nor a UnicodeDecodeError without the file)."""
+    folder = tmp_path / "dir.toml"
+    folder.mkdir()
+    binary = tmp_path / "bin.toml"
+    binary.write_bytes(b"\xff\xfe\x00bad")
+    for f, reason in ((folder, "Is a directory"), (binary, "not a UTF-8 text file")):
+        with pytest.raises(ValueError, match=reason) as info:
+            load_scenario(f)
+        assert str(f) in str(info.value)
+        with pytest.raises(ValueError, match=reason) as info:
+            Scenario(vehicle=str(f)).load_vehicle()
+        assert str(f) in str(info.value)
+
+
 # ------------------------------------------------------------------------------------------
 # file paths: relative to the scenario file's folder; saved absolute
 # ------------------------------------------------------------------------------------------

@@ -450,7 +450,10 @@ def scenario_new(file: Path, from_name: str | None, force: bool) -> None:
         raise _fail(f"{file} exists; use --force to overwrite it")
     if not file.parent.exists():
         raise _fail(f"folder {file.parent} does not exist")
-    file.write_text(text, encoding="utf-8")
+    try:
+        file.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise _fail(f"{file}: cannot write this file ({exc.strerror or exc})") from None
     _err(f"wrote {file}")
 
 

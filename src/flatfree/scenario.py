@@ -779,6 +779,11 @@ def load_scenario(path: str | Path) -> Scenario:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ValueError(f"scenario file not found: {path}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"scenario file {path}: not a UTF-8 text file ({exc})") from None
+    except OSError as exc:  # a folder, no permission, ...
+        raise ValueError(f"scenario file {path}: cannot read it ({exc.strerror or exc})"
+                         ) from None
     return scenario_from_toml(text, source=str(path), base_dir=path.parent)
 
 

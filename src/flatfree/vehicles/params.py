@@ -351,6 +351,12 @@ def _read_toml(path_or_resource, what: str) -> dict:
         text = path_or_resource.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ValueError(f"{what}: file not found: {path_or_resource}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{what}: {path_or_resource} is not a UTF-8 text file ({exc})"
+                         ) from None
+    except OSError as exc:  # a folder, no permission, ...
+        raise ValueError(f"{what}: cannot read {path_or_resource} ({exc.strerror or exc})"
+                         ) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
