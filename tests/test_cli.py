@@ -542,6 +542,34 @@ def test_vehicle_option_retunes_a_file_with_the_defaults(tmp_path):
     assert build_scenario(str(f), vehicle="dallara_av21").controller_settings == {"wn_lat": 9.0}
 
 
+def _strict_json(text: str):
+    """JSON as the standard has it: NaN and Infinity refused (json.loads takes them)."""
+    def refuse(name):
+        raise ValueError(f"{name} is not JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_a_nan_metric_is_null_in_the_json_and_n_a_in_the_text(runner, tmp_path):
+    """Recorded runs shorter than the start-up interval have no steer RMS (NaN): demo's and
+    run's metrics.json hold null (valid JSON), their text lines n/a."""
+    out = tmp_path / "d"
+    res = _invoke(runner, ["demo", "--out", str(out), "--duration", "0.5",
+                           "--recording-duration", "0.5", "--no-progress"])
+    assert res.exit_code == 0, res.output
+    summary = _strict_json((out / "metrics.json").read_text())
+    assert [r["steer_rms_vs_recorded_deg"] for r in summary["recorded"]] == [None] * 3
+    lines = [ln for ln in res.stdout.splitlines() if ln.startswith("recorded, ")]
+    assert len(lines) == 3 and all("nan" not in ln for ln in lines), lines
+    assert all("steer RMS vs recorded n/a deg" in ln for ln in lines), lines
+    res = _invoke(runner, ["run", "--recording", "LVMS_23_01_04_B", "--duration", "0.5",
+                           "--out", str(tmp_path / "r")])
+    assert res.exit_code == 0, res.output
+    assert "steer_rms_vs_recorded_deg: n/a" in res.stdout
+    doc = _strict_json((tmp_path / "r" / "metrics.json").read_text())
+    assert doc["steer_rms_vs_recorded_deg"] is None
+
+
 def test_demo_bad_track_exits_2(runner, tmp_path):
     res = _invoke(runner, ["demo", "--out", str(tmp_path / "o"), "--track", "Atlantis"])
     assert res.exit_code == 2 and "Atlantis" in res.stderr and "Norisring" in res.stderr

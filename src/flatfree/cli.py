@@ -714,6 +714,19 @@ def steer_rms_vs_recorded_deg(tr, recorded: np.ndarray, startup_s: float | None 
     return math.degrees(float(np.sqrt(np.mean(d * d)))) if d.size else math.nan
 
 
+def _finite_or_none(values: dict[str, Any]) -> dict[str, Any]:
+    """``values`` with each non-finite float as None (JSON's null: NaN is not JSON), as
+    :meth:`flatfree.metrics.Metrics.to_dict` gives the metrics."""
+    return {k: None if isinstance(v, float) and not math.isfinite(v) else v
+            for k, v in values.items()}
+
+
+def _number(value: float | None, spec: str = ".3f") -> str:
+    """A number for a line of text: ``n/a`` for None or a non-finite one (a metric with no
+    sample to measure), as the JSON's null."""
+    return "n/a" if value is None or not math.isfinite(value) else format(value, spec)
+
+
 def _run_json(sc, tr, metrics, extra: dict[str, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {
         "scenario": sc.name,
@@ -726,8 +739,7 @@ def _run_json(sc, tr, metrics, extra: dict[str, Any]) -> dict[str, Any]:
     }
     out.update(metrics.to_dict())
     out["status_time_s"] = tr.status_time
-    out.update({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                for k, v in extra.items()})
+    out.update(_finite_or_none(extra))
     return out
 
 
@@ -861,7 +873,7 @@ def run(scenario_file, controller, track, recording, vehicle, cf_scale, cr_scale
                    f"{noise_txt}")
         click.echo(format_table([result]))
         for k, v in extra.items():
-            click.echo(f"{k}: {v:.3f}")
+            click.echo(f"{k}: {_number(v)}")
         if tr.status_time is not None:
             click.echo(f"the run stopped at t = {tr.status_time:.2f} s: {tr.status.value}")
         if out_dir is not None:
@@ -1233,15 +1245,16 @@ def _demo_runs(out_dir: Path, tasks, ref_xy, settings: Sequence[str], progress) 
     summary = {g: [{"label": r.label, "scenario": r.scenario.name,
                     "controller": r.scenario.controller,
                     **({"error": r.error} if r.error else r.metrics.to_dict()),
-                    **dict(r.extra)} for r in rs] for g, rs in results.items()}
+                    **_finite_or_none(dict(r.extra))} for r in rs]
+               for g, rs in results.items()}
     (out_dir / "metrics.json").write_text(json.dumps(summary, indent=2, default=str) + "\n",
                                           encoding="utf-8")
     click.echo(format_table(results["paper"]))
     for r in results["recorded"]:
         if r.metrics is not None:
             click.echo(f"recorded, {r.label}: max lateral error "
-                       f"{100 * r.metrics.lateral_error_max_m:.2f} cm, steer RMS vs recorded "
-                       f"{r.extra.get('steer_rms_vs_recorded_deg', math.nan):.3f} deg "
+                       f"{_number(100 * r.metrics.lateral_error_max_m, '.2f')} cm, steer RMS "
+                       f"vs recorded {_number(r.extra.get('steer_rms_vs_recorded_deg'))} deg "
                        f"({r.metrics.status})")
     click.echo(f"wrote {report} and {len(figs)} figures in {figdir} "
                f"({time.perf_counter() - t0:.1f} s)")
