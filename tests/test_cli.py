@@ -9,6 +9,7 @@ the plumbing is checked against independent computations.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -881,6 +882,12 @@ def test_demo_set_changes_every_run_and_refuses_what_differs_between_them(runner
     # or through the table that holds it (it took every run, the recorded ones too, to Monza)
     with pytest.raises(InputError, match="reference.track cannot be set"):
         _demo_tasks(**kw, settings=['reference={track = "Monza"}'])
+    with pytest.raises(InputError, match="reference.track cannot be set"):
+        _demo_tasks(**kw, settings=["reference="])  # the whole reference back to its default
+    # an inline table merges its keys: the reference's other fields (its track) are each run's
+    merged = _demo_tasks(**kw, settings=["reference={j_lat_max = 15}"])
+    for (_, _, sc), (_, _, before) in zip(merged, plain, strict=True):
+        assert sc.reference == dataclasses.replace(before.reference, j_lat_max=15.0)
     # a malformed setting: the library's message, once (not once per run)
     with pytest.raises(InputError, match=r"^setting seed: expected FIELD=VALUE, e.g. "
                                          r"reference.j_lat_max=15$"):

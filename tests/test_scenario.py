@@ -559,12 +559,82 @@ def test_settings_reach_channels_and_free_tables():
     assert dict(sc.vehicle_overrides) == {"mass": 1500}
     other = base.with_settings(["vehicle=bmw320i", "vehicle_overrides.mass=1500"])
     assert other.vehicle == "bmw320i" and dict(other.vehicle_overrides) == {"mass": 1500}
-    # an inline table replaces a channel; {} empties the controller settings
+    # an inline table merges into a channel; {} empties the controller settings
     rich = _rich().with_settings(["sensors.vx={noise_std = 0.1}", "controller_settings={}"])
-    assert rich.sensors.channels["vx"] == SensorChannel(noise_std=0.1)
+    assert rich.sensors.channels["vx"] == dataclasses.replace(_rich().sensors.channels["vx"],
+                                                              noise_std=0.1)
     assert rich.sensors.channels["x"] == _rich().sensors.channels["x"]
     assert dict(rich.controller_settings) == {}
     assert scenario_from_toml(rich.to_toml()) == rich
+
+
+def test_an_inline_table_merges_its_keys_into_the_table():
+    """``reference={j_lat_max=15}`` replaced the whole reference (the track went back to
+    Norisring, the other fields to their defaults): an inline table now sets each of its keys
+    as ``reference.KEY=VALUE`` would, and keeps the table's other fields."""
+    from flatfree.scenarios import named_scenario
+
+    base = _rich()  # raceline, 2 laps, a_lat_max 5 and drive_limit on, not the defaults
+    sc = base.with_settings(["reference={j_lat_max = 15, v_max = 40}"])
+    assert sc.reference == dataclasses.replace(base.reference, j_lat_max=15.0, v_max=40.0)
+    assert sc == base.with_settings(["reference.j_lat_max=15", "reference.v_max=40"])
+    assert type(sc.reference.j_lat_max) is float  # as reference.j_lat_max=15 stores it
+    # a free table (the controller's settings) and nested tables too
+    imu = named_scenario("paper-imu")
+    tuned = imu.with_settings(["controller_settings={alpha_lat = 30}"])
+    assert dict(tuned.controller_settings) == {**imu.controller_settings, "alpha_lat": 30}
+    assert tuned.controller_settings["estimator_lat"] == "imu"
+    deep = base.with_settings(["sensors={vx = {noise_std = 0.1}, y = {bias = 0.5}}"])
+    assert deep.sensors.channels["vx"] == dataclasses.replace(base.sensors.channels["vx"],
+                                                              noise_std=0.1)
+    assert deep.sensors.channels["y"] == SensorChannel(bias=0.5)  # a new channel: exact
+    assert deep.sensors.channels["x"] == base.sensors.channels["x"]
+    # a mapping's dict likewise
+    assert base.with_settings({"reference": {"j_lat_max": 15}}).reference == \
+        dataclasses.replace(base.reference, j_lat_max=15.0)
+    # a track in it replaces the recording, as reference.track does
+    rec = Scenario(reference=ReferenceSpec(track=None, recording="LVMS_23_01_04_B"))
+    moved = rec.with_settings(['reference={track = "Monza", laps = 2}'])
+    assert (moved.reference.track, moved.reference.recording, moved.reference.laps) == \
+        ("Monza", None, 2)
+    # each key is checked and named as its own setting would be
+    for setting, words in (
+            ("reference={j_lat_max = -1}", ["setting reference={j_lat_max = -1}:",
+                                            "reference.j_lat_max = -1.0", "> 0"]),
+            ("reference={wheels = 4}", ["field reference.wheels", "unknown key"]),
+            ("road={patch = []}", ["road.patch", "TOML file"]),
+            ('reference={track = "Spa", recording = "LVMS_23_01_04_B"}', ["not both"]),
+            ("controller_settings={alpha_lat = 0}", ["alpha_lat = 0", "> 0"])):
+        with pytest.raises(ValueError) as info:
+            imu.with_settings([setting])
+        msg = str(info.value)
+        assert msg.count(setting) == 1, msg  # named once, however many keys it has
+        for w in words:
+            assert w in msg, (w, msg)
+
+
+def test_a_table_setting_with_nothing_after_the_equals_is_its_defaults():
+    """``timing=`` was refused ("timing is a table") though the help says FIELD= puts a field
+    back to its default: a table's setting with nothing after the = (or {}) puts the whole
+    table back to its defaults."""
+    base = _rich()
+    assert base.with_settings(["timing="]).timing == Timing()
+    assert base.with_settings(["timing={}"]).timing == Timing()
+    assert base.with_settings(["reference="]).reference == ReferenceSpec()
+    assert base.with_settings(["actuators="]).actuators == Scenario().actuators
+    assert base.with_settings(["road="]).road == RoadSpec()  # its patches and bank too
+    assert base.with_settings({"road": None}).road == RoadSpec()
+    assert base.with_settings(["sensors.vx="]).sensors.channels.keys() == {"x", "psi"}
+    assert base.with_settings(["sensors="]).sensors == SensorSuite()  # every channel exact
+    assert dict(base.with_settings(["controller_settings="]).controller_settings) == {}
+    assert dict(base.with_settings(["vehicle_overrides="]).vehicle_overrides) == {}
+    # then a field of it, in order
+    sc = base.with_settings(["timing=", "timing.duration_s=4"])
+    assert sc.timing == Timing(duration_s=4.0)
+    # anything else than a table or nothing is refused, saying what a table takes
+    with pytest.raises(ValueError, match=r"timing is a table: .*nothing after the = for its "
+                                         r"defaults"):
+        base.with_settings(["timing=3"])
 
 
 def test_setting_a_recording_replaces_the_track_and_back():
@@ -638,7 +708,7 @@ def test_setting_a_recording_replaces_the_track_and_back():
         (["controller_settings.lanes=2"], ["setting controller_settings.lanes=2", "'lanes'",
                                            "unknown for mfc-flat"]),
         (["controller=flatness"], ["setting controller=flatness", "unknown for flatness",
-                                   "controller_settings={}"]),
+                                   "controller_settings= (nothing after the =)"]),
         (["vehicle=trabant"], ["setting vehicle=trabant", "unknown vehicle 'trabant'"]),
         (["vehicle_overrides.mass=nan"], ["setting vehicle_overrides.mass=nan",
                                           "mass = nan kg", "finite"]),

@@ -765,9 +765,13 @@ Examples:
 --set FIELD=VALUE reaches any field of a scenario by its dotted path in the TOML layout of
 `flatfree scenario new` (reference.*, timing.*, sensors.CHANNEL.*, actuators.*, road.mu,
 road.bank_deg, controller_settings.*, vehicle_overrides.*, seed, ...); VALUE is a TOML value
-(15, 1.5e-3, inf, true, "Monza", [1, 2]) or else a bare string (reference.track=Monza). The
---set options are applied after the other options, so they win. Faults ([[fault]]) and
-friction patches ([[road.patch]]) are set in a TOML file.
+(15, 1.5e-3, inf, true, "Monza", [1, 2]) or else a bare string (reference.track=Monza). An
+inline table given to a table merges its keys into it, each as TABLE.KEY=VALUE, the table's
+other fields kept ('reference={j_lat_max = 15, v_max = 40}'). FIELD= (nothing after the =)
+puts a field back to its default, and TABLE= a whole table (timing=, sensors.y=: exact;
+controller_settings=: the controller's defaults). The --set options are applied after the
+other options, so they win. Faults ([[fault]]) and friction patches ([[road.patch]]) are set
+in a TOML file.
 
 """ + _scenario_names_help() + """
 
@@ -805,8 +809,10 @@ usage or input.""")
               help="Set a scenario field by its dotted path, e.g. reference.j_lat_max=15, "
                    "reference.closed=false (a track file's shape; --track and --recording "
                    "drop it), reference.smoothing_length_m=40, sensors.y.markov_order=2, "
-                   "controller_settings.alpha_lat=40; FIELD= (nothing after the =) puts "
-                   "the field back to its default (repeatable; applied after the other "
+                   "controller_settings.alpha_lat=40; an inline table merges its keys "
+                   "into a table ('reference={j_lat_max = 15}' keeps the reference's other "
+                   "fields); FIELD= (nothing after the =) puts the field, or a whole table "
+                   "(timing=), back to its default (repeatable; applied after the other "
                    "options, so it wins over them).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print exactly one JSON object (metrics and settings) on stdout.")
@@ -1029,16 +1035,16 @@ def _demo_tasks(*, track: str | None, seed: int, duration_s: float | None,
     Raises :class:`InputError` (exit 2) on a bad setting or one of
     :data:`DEMO_FIXED_FIELDS`.
     """
-    from flatfree.scenario import NOISE_FREE_SUFFIX, scenario_with_settings, setting_path
+    from flatfree.scenario import NOISE_FREE_SUFFIX, _changed_paths, scenario_with_settings
 
     for s in settings:
         try:
-            path = setting_path(s)
+            paths = _changed_paths(s)  # an inline table's keys (reference={track = "Monza"})
         except ValueError as exc:
             raise _fail(str(exc)) from None
-        # the field, a part of it, or a table holding it (reference={track = "Monza"})
-        fixed = next((f for f in DEMO_FIXED_FIELDS if path == f or path.startswith(f + ".")
-                      or f.startswith(path + ".")), None)
+        # the field, a part of it, or a table holding it (reference=: all of it)
+        fixed = next((f for f in DEMO_FIXED_FIELDS for path in paths if path == f
+                      or path.startswith(f + ".") or f.startswith(path + ".")), None)
         if fixed is not None:
             raise _fail(f"--set {s}: demo runs several controllers, cars and references, so "
                         f"{fixed} cannot be set for all of them; use `flatfree run` (or demo "

@@ -91,7 +91,9 @@ Any field can also be changed by a *setting* ``"path=value"`` (:func:`scenario_w
 :meth:`Scenario.with_settings`, ``flatfree run --set``): the path is the field's dotted path in
 this layout (``reference.j_lat_max``, ``sensors.y.markov_order``, ``controller_settings.kp_lat``)
 and the value a TOML value (``15``, ``1.5e-3``, ``inf``, ``true``, ``"Monza"``, ``[1, 2]``), or a
-bare string when it is not one (``reference.track=Monza``).
+bare string when it is not one (``reference.track=Monza``). An inline table given to a table
+merges its keys into it (``reference={j_lat_max = 15, v_max = 40}``); nothing after the ``=``
+puts a field, or a whole table (``timing=``), back to its default.
 """
 
 from __future__ import annotations
@@ -790,9 +792,6 @@ def load_scenario(path: str | Path) -> Scenario:
 # ------------------------------------------------------------------------------------------
 # settings "path=value"
 # ------------------------------------------------------------------------------------------
-#: Tables a setting may create when the scenario has none yet (their keys are free: checked
-#: by the controller, the vehicle, the sensor channel); ``sensors.<channel>`` too.
-_FREE_TABLES = (("controller_settings",), ("vehicle_overrides",), ("sensors",))
 #: Arrays of tables: several entries, which one path cannot address.
 _TABLE_ARRAYS = (("fault",), ("road", "patch"))
 #: The dataclass whose fields a table holds (the annotations of its fields type the values).
@@ -831,6 +830,13 @@ def setting_path(setting: str) -> str:
     malformed one, as there."""
     (st,) = _settings([setting])
     return ".".join(st.path)
+
+
+def _changed_paths(setting: str) -> list[str]:
+    """The dotted paths a setting ``"path=value"`` changes: its path, or each key of an inline
+    table it merges into a table (``reference={j_lat_max = 15}``: ``reference.j_lat_max``;
+    :func:`_expand`); ``ValueError`` for a malformed one."""
+    return [".".join(st.path) for st in _expand(*_settings([setting]))]
 
 
 def _settings(settings: Sequence[str] | Mapping[str, Any]) -> list[_Setting]:
@@ -881,6 +887,28 @@ def _typed(st: _Setting) -> Any:
     return value
 
 
+def _is_table(path: tuple[str, ...]) -> bool:
+    """Whether ``path`` is a table of a scenario (``reference``, ``sensors``, ``sensors.vx``,
+    ...), present in it or not; the arrays of tables excluded."""
+    return ((len(path) == 1 and path[0] in _TABLES and path not in _TABLE_ARRAYS)
+            or (len(path) == 2 and path[0] == "sensors"))
+
+
+def _expand(st: _Setting) -> list[_Setting]:
+    """A setting of a table to an inline table as the settings of its keys, in order
+    (``reference={j_lat_max = 15}``: ``reference.j_lat_max = 15``; a nested table likewise),
+    so that the table keeps its other fields; an empty table ``{}`` is the table's defaults,
+    as nothing after the ``=``. Each keeps the setting's label, for the messages."""
+    if not _is_table(st.path) or not isinstance(st.value, Mapping):
+        return [st]
+    if not st.value:
+        return [dataclasses.replace(st, value=None, text="")]
+    out = []
+    for key, value in st.value.items():
+        out.extend(_expand(_Setting(st.label, (*st.path, str(key)), value, None)))
+    return out
+
+
 def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -> None:
     """Set ``st`` in the scenario document ``doc`` (in place)."""
     path = st.path
@@ -894,12 +922,12 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
     for i, key in enumerate(path[:-1]):
         prefix = path[:i + 1]
         dotted = ".".join(prefix)
-        if key not in node:
-            if i == 0 and prefix not in _FREE_TABLES:
+        if key not in node:  # a table the scenario does not hold (or a setting reset)
+            if i == 0 and not _is_table(prefix):
                 valid = ", ".join(t for t in _TABLES if t != "fault")
                 raise ValueError(f"setting {st.label}: {dotted} is not a table of a scenario; "
                                  f"tables: {valid}")
-            if i > 0 and not (prefix[0] == "sensors" and i == 1):
+            if i > 0 and not _is_table(prefix):
                 raise ValueError(f"setting {st.label}: {'.'.join(prefix[:-1])} has no table "
                                  f"{key!r}")
             node[key] = {}
@@ -909,11 +937,14 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
         node = node[key]
     key, dotted = path[-1], ".".join(path)
     value = _typed(st)
-    if isinstance(node.get(key), dict) and not isinstance(value, dict):
+    if _is_table(path) and value is not None:  # (an inline table was merged: _expand)
         raise ValueError(f"setting {st.label}: {dotted} is a table: set one of its fields "
-                         f"({dotted}.FIELD=VALUE) or give an inline table {{...}}")
+                         f"({dotted}.FIELD=VALUE), several in an inline table "
+                         f"({dotted}={{FIELD = VALUE, ...}}), or nothing after the = for "
+                         "its defaults")
     if value is None:
-        node.pop(key, None)  # back to the default (a mapping's None; TOML has no null)
+        # back to the default (a mapping's None; TOML has no null); a table's: all of it
+        node.pop(key, None)
     else:
         try:
             import tomli_w
@@ -963,9 +994,16 @@ def scenario_with_settings(sc: Scenario,
         (``reference.track=Monza``); a string field takes the text as written (``name=2024``);
         nothing after the ``=`` (``reference.closed=``) puts the field back to its default
         (``reference.closed`` and ``reference.smoothing_length_m``: None, the loader's choice;
-        an empty text is ``name=""``).
-        A mapping's values are taken as they are (``None``: the field's default). Applied in
-        order (a later setting of the same path wins), then validated together.
+        an empty text is ``name=""``), and a table's (``timing=``, ``sensors.y=``,
+        ``controller_settings=``) every field of it (a free table, ``sensors`` and a channel:
+        empty, every channel exact, the controller's defaults).
+        An inline table given to a table *merges* its keys into it, each as its own setting
+        ``table.key=value`` (``reference={j_lat_max = 15}`` is ``reference.j_lat_max=15``: the
+        reference's track and other fields are kept); an empty one, ``{}``, is the table's
+        defaults, as nothing after the ``=``.
+        A mapping's values are taken as they are (``None``: the field's default; a dict for a
+        table: merged likewise). Applied in order (a later setting of the same path wins),
+        then validated together.
 
     Returns
     -------
@@ -974,8 +1012,9 @@ def scenario_with_settings(sc: Scenario,
 
     Notes
     -----
-    Only the tables that may be absent are created (``controller_settings``,
-    ``vehicle_overrides``, ``sensors.<channel>``: a new channel starts exact). Setting
+    A table the scenario does not hold is created by a setting of one of its fields
+    (``controller_settings``, ``vehicle_overrides``, ``sensors.<channel>``: a new channel
+    starts exact; any other after its ``TABLE=``: from its defaults). Setting
     ``reference.track`` drops the scenario's recording and ``reference.recording`` its
     track, as ``flatfree run --track`` / ``--recording`` do (setting both is an error). The
     arrays of tables ``[[fault]]`` and ``[[road.patch]]`` cannot be addressed by a path: set
@@ -989,15 +1028,15 @@ def scenario_with_settings(sc: Scenario,
         of the resulting scenario (NaN is refused wherever a number is checked): the message
         names the setting as written, the field and the value.
     """
-    items = _settings(settings)
+    items = [leaf for st in _settings(settings) for leaf in _expand(st)]
     if not items:
         return sc
     explicit = {s.path for s in items if s.value is not None}
     both = [s for s in items if s.path in (("reference", "track"), ("reference", "recording"))
             and s.value is not None]
     if {s.path for s in both} == {("reference", "track"), ("reference", "recording")}:
-        raise ValueError(f"settings {', '.join(s.label for s in both)}: give one of "
-                         "reference.track and reference.recording, not both")
+        raise ValueError(f"{_labels(both)}: give one of reference.track and "
+                         "reference.recording, not both")
     # the scenario as a TOML file holds it: fresh plain tables, each value as read from TOML
     # (the settings' values too: _assign), validated as a file is, once
     doc = tomllib.loads(scenario_to_toml(sc))
@@ -1012,7 +1051,8 @@ def scenario_with_settings(sc: Scenario,
 
 
 def _labels(items: list[_Setting]) -> str:
-    return f"setting{'s' if len(items) > 1 else ''} {', '.join(s.label for s in items)}"
+    labels = list(dict.fromkeys(s.label for s in items))  # an inline table's keys share one
+    return f"setting{'s' if len(labels) > 1 else ''} {', '.join(labels)}"
 
 
 def _check_parts(sc: Scenario, items: list[_Setting]) -> None:
@@ -1026,7 +1066,8 @@ def _check_parts(sc: Scenario, items: list[_Setting]) -> None:
             settings_from_mapping(sc.controller, sc.controller_settings)
         except (TypeError, ValueError) as exc:
             hint = ("; the scenario's controller_settings belong to its controller: also set "
-                    "controller_settings={} to start from the new one's defaults"
+                    "controller_settings= (nothing after the =) to start from the new one's "
+                    "defaults"
                     if any(s.path == ("controller",) for s in ctrl) else "")
             raise ValueError(f"{_labels(ctrl)}: controller {sc.controller}: {exc}{hint}"
                              ) from None
