@@ -266,6 +266,19 @@ def test_run_malformed_toml_names_line_and_field(runner, tmp_path):
     assert res.exit_code == 2 and "line 2" in res.stderr
 
 
+def test_run_a_files_controller_setting_error_names_the_file_and_line(runner, tmp_path):
+    f = tmp_path / "mine.toml"
+    f.write_text('name = "my-scenario"\n\n[controller_settings]\nalpha_lat = "48.9"\n')
+    res = _invoke(runner, ["run", str(f), *SHORT])
+    assert res.exit_code == 2, res.output
+    assert res.stderr.startswith(f"Error: {f}, line 4: field controller_settings.alpha_lat: ")
+    # a --vehicle that cannot be read is the option's error, not the controller's
+    (tmp_path / "car.toml").mkdir()
+    res = _invoke(runner, ["run", "--vehicle", str(tmp_path / "car.toml"), *SHORT])
+    assert res.exit_code == 2, res.output
+    assert res.stderr.startswith("Error: --vehicle: ") and "controller mfc" not in res.stderr
+
+
 # ------------------------------------------------------------------------------------------
 # run: results
 # ------------------------------------------------------------------------------------------

@@ -33,7 +33,7 @@ def _rich() -> Scenario:
         vehicle="dallara_av21",
         vehicle_overrides={"mass": 800.0},
         controller="mfc-flat",
-        controller_settings={"alpha_lat": 2.5, "window": 20},
+        controller_settings={"alpha_lat": 2.5, "window_lat": 20},
         reference=ReferenceSpec(track="Norisring", line="raceline", laps=2, a_lat_max=5.0,
                                 drive_limit=True),
         timing=Timing(plant_dt_s=0.001, control_dt_s=0.002, log_dt_s=0.01, duration_s=30.0),
@@ -345,6 +345,38 @@ def test_a_file_that_cannot_be_read_is_a_value_error_naming_it(tmp_path):
         with pytest.raises(ValueError, match=reason) as info:
             Scenario(vehicle=str(f)).load_vehicle()
         assert str(f) in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ('name = "my-scenario"\n\n[controller_settings]\nalpha_lat = "48.9"\n',
+         ["line 4", "field controller_settings.alpha_lat", "controller mfc-natural",
+          "alpha_lat = '48.9'", "real number"]),
+        ('name = "my-scenario"\n[vehicle_overrides]\nmass = "1600 kg"\n',
+         ["line 3", "field vehicle_overrides.mass", "vehicle peugeot406",
+          "mass = '1600 kg'", "real number"]),
+        ('controller = "flatness"\n\n[controller_settings]\ncf_scale = 0.3\nalpha_lat = 30\n',
+         ["line 5", "field controller_settings.alpha_lat", "unknown for flatness"]),
+        ('[vehicle_overrides]\nwheels = 4\n',
+         ["line 2", "field vehicle_overrides.wheels", "not parameters of a vehicle"]),
+    ],
+)
+def test_a_files_controller_settings_and_overrides_name_the_file_line_and_field(
+        tmp_path, text, words):
+    """The controller's settings and the vehicle overrides were checked only by the run, whose
+    error named neither the file nor the line (and blamed the controller for the car's
+    mass): load_scenario checks them as a setting of them is checked."""
+    f = tmp_path / "mine.toml"
+    f.write_text(text)
+    with pytest.raises(ValueError) as info:
+        load_scenario(f)
+    msg = str(info.value)
+    assert msg.startswith(f"{f}, "), msg
+    for w in words:
+        assert w in msg, (w, msg)
+    # the text alone is a scenario (a run checks these parts): only a file is checked
+    assert scenario_from_toml(text).controller_settings is not None
 
 
 # ------------------------------------------------------------------------------------------

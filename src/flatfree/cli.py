@@ -567,7 +567,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     ``Monza``; :class:`~flatfree.scenario.Scenario`). Raises :class:`InputError` (exit 2) on
     bad input.
     """
-    from flatfree.scenario import scenario_with_settings
+    from flatfree.scenario import _part_errors, scenario_with_settings
     from flatfree.vehicles.params import bundled_name
 
     if track is not None and recording is not None:
@@ -610,6 +610,9 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             changes["timing"] = dataclasses.replace(sc.timing, duration_s=duration_s)
         noise_setting = [] if noise is None else [f"noise={'true' if noise else 'false'}"]
         sc = sc.with_(**changes)
+        if vehicle is not None:  # its file read now: its error is the option's, not the run's
+            for *_, exc in _part_errors(sc, controller=False):
+                raise _fail(f"--vehicle: {exc}")
         # a new track or a recording, as its setting: the other one and the old file's shape
         # settings go (a --set after this may give them for the new one)
         for key, value in (("reference.track", track), ("reference.recording", recording)):

@@ -775,7 +775,13 @@ def _reference_values(reference: dict) -> dict:
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read a scenario TOML file; its relative file paths are relative to its folder (module
-    docstring) and come back absolute."""
+    docstring) and come back absolute.
+
+    Besides :func:`scenario_from_toml`'s checks, the controller's settings (for the file's
+    controller) and the file's ``[vehicle_overrides]`` (on its car, read for them) are checked
+    as a run checks them, so that a mistake there is a ``ValueError`` naming the file, the
+    line and the field rather than the run's error. A car without overrides is not read here
+    (a missing car file is the run's error)."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -786,7 +792,19 @@ def load_scenario(path: str | Path) -> Scenario:
     except OSError as exc:  # a folder, no permission, ...
         raise ValueError(f"scenario file {path}: cannot read it ({exc.strerror or exc})"
                          ) from None
-    return scenario_from_toml(text, source=str(path), base_dir=path.parent)
+    sc = scenario_from_toml(text, source=str(path), base_dir=path.parent)
+    # what a scenario leaves to the run, checked here so that the error names the file, the
+    # line and the field: the controller's settings, and the file's vehicle_overrides (on
+    # its car, which is read then; a car without overrides is read by the run)
+    where = _Where(text, str(path))
+    for table, values, top, exc in _part_errors(sc, vehicle=bool(sc.vehicle_overrides)):
+        # a key quoted first ("['alpha_lat'] unknown ...; valid keys: cf_scale, ..."), else
+        # the one the message names first ("alpha_lat = '48.9' ...")
+        key = next((k for k in values if repr(k) in str(exc)), None) or _field_in_message(
+            str(exc), values)
+        raise (where.error(exc, table, key) if key is not None
+               else where.error(exc, None, top)) from None
+    return sc
 
 
 # ------------------------------------------------------------------------------------------
@@ -1055,25 +1073,49 @@ def _labels(items: list[_Setting]) -> str:
     return f"setting{'s' if len(labels) > 1 else ''} {', '.join(labels)}"
 
 
+def _controller_error(sc: Scenario) -> Exception | None:
+    """The error of the scenario's controller settings for its controller (None: none)."""
+    from flatfree.controllers.vehicle import settings_from_mapping
+
+    try:
+        settings_from_mapping(sc.controller, sc.controller_settings)
+    except (TypeError, ValueError) as exc:
+        return exc
+    return None
+
+
+def _vehicle_error(sc: Scenario) -> Exception | None:
+    """The error of loading the scenario's car with its overrides (None: none)."""
+    try:
+        sc.load_vehicle()
+    except (TypeError, ValueError) as exc:
+        return exc
+    return None
+
+
+def _part_errors(sc: Scenario, controller: bool = True, vehicle: bool = True):
+    """The errors of the parts a scenario leaves to the run, each as ``(table, its values,
+    the top-level key, error)``: the controller's settings, the car with its overrides."""
+    if controller and (exc := _controller_error(sc)) is not None:
+        yield ("controller_settings", sc.controller_settings, "controller",
+               ValueError(f"controller {sc.controller}: {exc}"))
+    if vehicle and (exc := _vehicle_error(sc)) is not None:
+        text = str(exc)  # the loader's message of a file names the vehicle already
+        yield ("vehicle_overrides", sc.vehicle_overrides, "vehicle", ValueError(
+            text if text.startswith(f"vehicle {sc.vehicle}") else f"vehicle {sc.vehicle}: {text}"))
+
+
 def _check_parts(sc: Scenario, items: list[_Setting]) -> None:
     """Check the controller's settings and the vehicle when a setting changed them (a scenario
-    leaves these to the run; here the error can name the setting)."""
+    leaves these to the run; here the error can name the setting, as :func:`load_scenario`'s
+    names the file)."""
     ctrl = [s for s in items if s.path[0] in ("controller", "controller_settings")]
-    if ctrl:
-        from flatfree.controllers.vehicle import settings_from_mapping
-
-        try:
-            settings_from_mapping(sc.controller, sc.controller_settings)
-        except (TypeError, ValueError) as exc:
+    veh = [s for s in items if s.path[0] in ("vehicle", "vehicle_overrides")]
+    for table, _, _, exc in _part_errors(sc, controller=bool(ctrl), vehicle=bool(veh)):
+        if table == "controller_settings":
             hint = ("; the scenario's controller_settings belong to its controller: also set "
                     "controller_settings= (nothing after the =) to start from the new one's "
                     "defaults"
                     if any(s.path == ("controller",) for s in ctrl) else "")
-            raise ValueError(f"{_labels(ctrl)}: controller {sc.controller}: {exc}{hint}"
-                             ) from None
-    veh = [s for s in items if s.path[0] in ("vehicle", "vehicle_overrides")]
-    if veh:
-        try:
-            sc.load_vehicle()
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{_labels(veh)}: vehicle {sc.vehicle}: {exc}") from None
+            raise ValueError(f"{_labels(ctrl)}: {exc}{hint}") from None
+        raise ValueError(f"{_labels(veh)}: {exc}") from None
