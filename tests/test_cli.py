@@ -459,8 +459,39 @@ def test_named_scenario_and_option_override(runner):
     res = _invoke(runner, ["run", "paper-noise-free", "--controller", "mfc-flat", *SHORT,
                            "--json"])
     doc = json.loads(res.stdout)
-    assert doc["scenario"] == "paper-noise-free" and doc["controller"] == "mfc-flat"
+    # the named scenario it then is (paper-noise-free is mfc-natural's)
+    assert doc["scenario"] == "paper-mfc-flat-noise-free" and doc["controller"] == "mfc-flat"
     assert doc["noise"] is False and doc["vehicle"] == "peugeot406"
+
+
+def test_controller_option_names_and_describes_the_controller_run(runner, tmp_path):
+    """--controller flatness on the default base wrote name "paper" and the description
+    "paper Section 4: mfc-natural on the 10DoF peugeot406" into the run's scenario.toml and
+    report: a named base becomes the named scenario it then is, any other base's description
+    says which controller replaced which."""
+    from flatfree.cli import build_scenario
+    from flatfree.scenarios import named_scenario
+
+    sc = build_scenario(controller="flatness", track="Monza", duration_s=2.0)
+    ref = named_scenario("paper-flatness", track="Monza", duration_s=2.0)
+    assert (sc.name, sc.description) == (ref.name, ref.description) and sc == ref
+    assert "mfc-natural" not in sc.description
+    mism = build_scenario(controller="flatness", cf_scale=0.3, cr_scale=0.3)
+    assert mism == named_scenario("paper-mismatch")
+    # no named scenario runs it: the base's name, its description amended
+    rec = build_scenario("recorded", controller="mfc-flat")
+    assert rec.name == "recorded"
+    assert rec.description.endswith("the mfc-flat controller in place of mfc-natural "
+                                    "(--controller)")
+    f = tmp_path / "mine.toml"
+    f.write_text('name = "mine"\ndescription = "mfc-natural on Spa"\n')
+    mine = build_scenario(str(f), controller="mfc-flat")
+    assert mine.name == "mine"
+    assert mine.description == ("mfc-natural on Spa; the mfc-flat controller in place of "
+                                "mfc-natural (--controller)")
+    res = _invoke(runner, ["run", "--controller", "flatness", "--track", "Monza",
+                           "--duration", "1", "--json"])
+    assert json.loads(res.stdout)["scenario"] == "paper-flatness"
 
 
 def test_vehicle_option_takes_the_cars_natural_settings():

@@ -519,6 +519,32 @@ _CONTROL_PERIOD = click.option(
          "their sample counts).")
 
 
+def _is_file_spec(spec: str | None) -> bool:
+    """Whether ``flatfree run``'s SCENARIO names a file (else a named scenario)."""
+    return spec is not None and (Path(spec).is_file() or spec.lower().endswith(".toml"))
+
+
+def _renamed_for_controller(sc, base, *, named: bool, vehicle: str | None):
+    """``sc``, ``base`` with its controller replaced (``--controller``), named and described
+    for the controller it runs: as the named scenario it then is, if any (``paper
+    --controller flatness`` is ``paper-flatness``), else with the base's description saying
+    which controller replaced which."""
+    if named:
+        mod = _scenarios_module()
+        # what a named scenario fixes (the options' seed and duration aside)
+        keys = [f.name for f in dataclasses.fields(sc)
+                if f.name not in ("name", "description", "seed", "timing")]
+        for name in mod.SCENARIO_NAMES:
+            try:
+                other = mod.named_scenario(name, vehicle=vehicle)
+            except ValueError:  # (the recorded scenarios take no vehicle)
+                continue
+            if all(getattr(other, k) == getattr(sc, k) for k in keys):
+                return sc.with_(name=other.name, description=other.description)
+    what = f"the {sc.controller} controller in place of {base.controller} (--controller)"
+    return sc.with_(description=f"{base.description}; {what}" if base.description else what)
+
+
 def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
     """The scenario a run starts from: a TOML file, a named scenario, or the default. A named
     track scenario takes ``vehicle`` from ``named_scenario(vehicle=...)`` (the car in its
@@ -527,13 +553,11 @@ def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
 
     if spec is None:
         spec = "recorded" if recording is not None else "paper"
-    else:
-        p = Path(spec)
-        if p.is_file() or spec.lower().endswith(".toml"):
-            try:
-                return load_scenario(p)
-            except ValueError as exc:
-                raise _fail(str(exc)) from None
+    elif _is_file_spec(spec):
+        try:
+            return load_scenario(Path(spec))
+        except ValueError as exc:
+            raise _fail(str(exc)) from None
     mod = _scenarios_module()
     if spec not in mod.SCENARIO_NAMES:
         raise _fail(f"unknown scenario {spec!r}: give a TOML file, or a named scenario: "
@@ -553,7 +577,9 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
 
     ``--controller`` different from the scenario's drops the scenario's controller settings
     (they belong to the other controller; ``mfc-natural`` then takes the car's tuning,
-    :func:`flatfree.scenarios.natural_settings`); ``--cf-scale``/``--cr-scale`` go into the
+    :func:`flatfree.scenarios.natural_settings`) and names and describes the scenario for the
+    controller it runs (:func:`_renamed_for_controller`: ``paper`` with ``flatness`` is
+    ``paper-flatness``); ``--cf-scale``/``--cr-scale`` go into the
     controller settings (only the flatness controller takes them: another one refuses them
     when the run starts). ``settings`` (``--set FIELD=VALUE``, repeatable) are applied last,
     in order, by :func:`flatfree.scenario.scenario_with_settings`: a ``--set`` wins over the
@@ -572,7 +598,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
 
     if track is not None and recording is not None:
         raise _fail("give --track or --recording, not both")
-    sc = _load_base(spec, recording, vehicle)
+    sc = base = _load_base(spec, recording, vehicle)
     try:
         changes: dict[str, Any] = {}
         ctrl_settings = dict(sc.controller_settings)
@@ -613,6 +639,10 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if vehicle is not None:  # its file read now: its error is the option's, not the run's
             for *_, exc in _part_errors(sc, controller=False):
                 raise _fail(f"--vehicle: {exc}")
+        if "controller" in changes:  # the name and description said the base's controller
+            sc = _renamed_for_controller(sc, base, named=base.name in
+                                         _scenarios_module().SCENARIO_NAMES
+                                         and not _is_file_spec(spec), vehicle=vehicle)
         # a new track or a recording, as its setting: the other one and the old file's shape
         # settings go (a --set after this may give them for the new one)
         for key, value in (("reference.track", track), ("reference.recording", recording)):
@@ -783,7 +813,8 @@ Exit codes: 0 completed, 1 the run did not complete (left the track, non-finite 
 usage or input.""")
 @click.argument("scenario_file", metavar="[SCENARIO]", required=False)
 @click.option("--controller", type=click.Choice(_controller_choices(), case_sensitive=False),
-              help="Controller (default: the scenario's).")
+              help="Controller (default: the scenario's); a named scenario becomes the one "
+                   "that runs it, if any (paper: paper-flatness).")
 @click.option("--track", metavar="NAME_OR_CSV",
               help="Bundled track (case-insensitive, see `flatfree tracks`) or a CSV path.")
 @click.option("--recording", metavar="NAME_OR_CSV",
