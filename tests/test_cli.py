@@ -237,6 +237,8 @@ def test_template_commented_options_are_valid_when_uncommented():
         (["--cr-scale", "nan"], ["--cr-scale"]),
         (["--seed", "-1"], ["--seed"]),
         (["--duration", "0"], ["--duration"]),
+        (["--duration", "0.0005", "--set", "timing.startup_s=0"],
+         ["timing.duration_s = 0.0005 s", "shorter than one plant step", "plant_dt_s = 0.001"]),
         # the natural-output controller does not take the flatness model's stiffness scale
         (["--controller", "mfc-natural", "--cf-scale", "0.3", *SHORT], ["cf_scale"]),
         (["no-such-scenario"], ["unknown scenario", "paper", "recorded"]),

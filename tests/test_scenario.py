@@ -246,6 +246,19 @@ def test_a_tracks_shape_and_smoothing_are_reference_settings(tmp_path):
             ReferenceSpec(**bad)
 
 
+def test_a_duration_shorter_than_one_plant_step_is_refused():
+    """A run of 0.0005 s at a 1 ms plant step took no step and reported completed with an
+    empty log."""
+    for kw in ({"duration_s": 0.0005}, {"duration_s": 0.004, "plant_dt_s": 0.01,
+                                        "control_dt_s": 0.01, "log_dt_s": 0.01}):
+        with pytest.raises(ValueError, match=r"timing.duration_s = .* s: shorter than one "
+                                             r"plant step \(plant_dt_s = "):
+            Timing(**kw)
+    assert Timing(duration_s=0.001).duration_s == 0.001  # one step
+    with pytest.raises(ValueError, match="setting timing.duration_s=0.0001: .*plant_dt_s"):
+        Scenario().with_settings(["timing.duration_s=0.0001"])
+
+
 def test_reference_needs_exactly_one_source():
     with pytest.raises(ValueError, match="exactly one of track"):
         ReferenceSpec(track=None)

@@ -258,6 +258,7 @@ class Timing:
     ``duration_s`` is capped at twice that horizon (:func:`flatfree.simulation.prepare`; the
     loop allocates its log for the whole duration). On the clock schedule
     (``schedule = "time"``) None is the reference's duration and a ``duration_s`` is kept.
+    A ``duration_s`` shorter than one plant step (to the nearest step) is refused.
 
     The model-free controllers' estimator windows and denoisers are counts of samples, tuned
     at ``control_dt_s`` = 0.001 s: :meth:`Scenario.with_control_period` changes the period and
@@ -278,6 +279,12 @@ class Timing:
         nonnegative("timing.startup_s", self.startup_s, "s")
         if self.duration_s is not None:
             positive("timing.duration_s", self.duration_s, "s")
+            # the run's steps, as simulation.prepare counts them (to the nearest): none, an
+            # empty log reported as completed
+            if whole_steps(self.duration_s, self.plant_dt_s)[0] < 1:
+                raise ValueError(
+                    f"timing.duration_s = {self.duration_s!r} s: shorter than one plant step "
+                    f"(plant_dt_s = {self.plant_dt_s!r} s), the run would take none")
         for k in ("control_dt_s", "log_dt_s"):
             n, moved = whole_steps(getattr(self, k), self.plant_dt_s)
             if moved or n < 1:
