@@ -339,6 +339,26 @@ def test_fault_needs_its_fields():
         Fault(kind="steer_limit", t_start_s=0.0, duration_s=1.0)
 
 
+def test_a_fault_refuses_a_key_of_the_other_kind(tmp_path):
+    """``value = 3`` on a nan_measurement fault ran and was ignored: a key that does not
+    apply to the fault's kind is refused, naming the key and the kind (in a file, the line)."""
+    with pytest.raises(ValueError, match=r"fault.value = 3: a nan_measurement fault takes no "
+                                         r"value .*its keys: kind, channel, t_start_s"):
+        Fault(kind="nan_measurement", channel="x", t_start_s=0.0, duration_s=1.0, value=3)
+    with pytest.raises(ValueError, match=r"fault.channel = 'x': a steer_limit fault takes no "
+                                         r"channel .*its keys: kind, t_start_s, duration_s, "
+                                         r"value"):
+        Fault(kind="steer_limit", channel="x", t_start_s=0.0, duration_s=1.0, value=0.01)
+    f = tmp_path / "f.toml"
+    f.write_text('[[fault]]\nkind = "nan_measurement"\nchannel = "x"\nt_start_s = 1.0\n'
+                 'duration_s = 0.05\nvalue = 3\n')
+    with pytest.raises(ValueError) as info:
+        load_scenario(f)
+    msg = str(info.value)
+    for w in (str(f), "line 6", "field fault.value", "nan_measurement fault takes no value"):
+        assert w in msg, (w, msg)
+
+
 def test_missing_file():
     with pytest.raises(ValueError, match="scenario file not found"):
         load_scenario("/nonexistent/x.toml")

@@ -404,7 +404,7 @@ mu = 1.0
 # mu = 0.5
 
 # [[fault]]                 # a measurement that reads NaN for a while
-# kind = "nan_measurement"  # or "steer_limit" (with value = the limit [rad])
+# kind = "nan_measurement"  # or "steer_limit" (value = the limit [rad], no channel)
 # channel = "x"
 # t_start_s = 10.0
 # duration_s = 0.05

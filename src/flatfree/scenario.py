@@ -62,7 +62,7 @@ TOML layout (every key optional except where a section says so; units in the key
     mu = 0.5
 
     [[fault]]
-    kind = "nan_measurement"        # or "steer_limit" (with value = the limit [rad])
+    kind = "nan_measurement"        # or "steer_limit" (value = the limit [rad], no channel)
     channel = "x"                   # a measured channel (flatfree.sensors.SENSOR_CHANNELS)
     t_start_s = 10.0
     duration_s = 0.05
@@ -391,6 +391,8 @@ class Fault:
 
     ``nan_measurement``: the measured ``channel`` reads NaN during the interval.
     ``steer_limit``: the steering range is limited to ``value`` [rad] during the interval.
+    A key of the other kind (a ``value`` for ``nan_measurement``, a ``channel`` for
+    ``steer_limit``) is refused: the run would ignore it.
     """
 
     kind: str
@@ -403,6 +405,15 @@ class Fault:
         _choice("fault.kind", self.kind, FAULT_KINDS)
         nonnegative("fault.t_start_s", self.t_start_s, "s")
         positive("fault.duration_s", self.duration_s, "s")
+        # a key of the other kind: refused, not ignored
+        other = {"nan_measurement": ("value", "the measured channel reads NaN"),
+                 "steer_limit": ("channel", "it limits the steering range to value [rad]")}
+        key, what = other[self.kind]
+        if getattr(self, key) is not None:
+            keys = ("kind, channel, t_start_s, duration_s" if self.kind == "nan_measurement"
+                    else "kind, t_start_s, duration_s, value")
+            raise ValueError(f"fault.{key} = {getattr(self, key)!r}: a {self.kind} fault takes "
+                             f"no {key} ({what}); its keys: {keys}")
         if self.kind == "nan_measurement":
             if not self.channel:
                 raise ValueError("fault.channel: a nan_measurement fault needs the channel name")
