@@ -710,10 +710,14 @@ def test_noise_on_a_noise_free_scenario_is_refused(runner):
     assert res.exit_code == 2 and res.stdout == ""
     assert "'paper-noise-free'" in res.stderr and "run 'paper'" in res.stderr
     # the scenario's own check (flatfree.scenario), --noise applied as the setting noise=true
-    assert res.stderr == ("Error: setting noise=true: field noise: noise = True: the "
+    # and named as the option the user gave (it said "setting noise=true", "noise = True")
+    assert res.stderr == ("Error: --noise: field noise: noise = true: the "
                           "scenario's name 'paper-noise-free' says noise-free; run 'paper' for "
                           "the noisy variant, or rename it (name = ...)\n")
-    with pytest.raises(InputError, match=r"^setting noise=true: field noise: noise = True: the "
+    res = _invoke(runner, ["run", "paper", "--no-noise", "--set", "noise=x"])
+    assert res.exit_code == 2
+    assert res.stderr.startswith("Error: --no-noise, setting noise=x: field noise: ")
+    with pytest.raises(InputError, match=r"^setting noise=true: field noise: noise = true: the "
                                          r"scenario's name 'recorded-imu-noise-free' says "
                                          r"noise-free; run 'recorded-imu' for the noisy variant, "
                                          r"or rename it \(name = \.\.\.\)$"):
@@ -724,7 +728,7 @@ def test_noise_on_a_noise_free_scenario_is_refused(runner):
     from flatfree.cli import _demo_tasks
 
     with pytest.raises(InputError, match=r"^paper, flatness: setting noise=true: field noise: "
-                                         r"noise = True: the scenario's name "
+                                         r"noise = true: the scenario's name "
                                          r"'paper-flatness-noise-free' says noise-free"):
         _demo_tasks(track=None, seed=0, duration_s=2.0, rec_duration_s=2.0, no_recorded=True,
                     noise=False, settings=["noise=true"])

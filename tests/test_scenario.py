@@ -117,7 +117,7 @@ def test_noise_switch_keeps_rates_and_delays():
          ["line 3", ("field fault.channel: fault.channel: 'e_y' is not a measured channel; "
                      "channels: x, y, psi, vx, vy, r, ax, ay")]),
         ('name = "paper-noise-free"\nnoise = true\n',
-         ["line 2", ("field noise: noise = True: the scenario's name 'paper-noise-free' says "
+         ["line 2", ("field noise: noise = true: the scenario's name 'paper-noise-free' says "
                      "noise-free; run 'paper' for the noisy variant, or rename it "
                      "(name = ...)")]),
         ('[reference]\ndrive_limit = "yes"\n', ["line 2", "reference.drive_limit", "'yes'"]),
@@ -159,7 +159,7 @@ def test_malformed_files_name_the_line_and_the_field(text, words):
           r"ax, ay$")),
         # its name says noise-free (noise is on by default)
         ({"name": "recorded-imu-noise-free"},
-         (r"^noise = True: the scenario's name 'recorded-imu-noise-free' says noise-free; "
+         (r"^noise = true: the scenario's name 'recorded-imu-noise-free' says noise-free; "
           r"run 'recorded-imu' for the noisy variant, or rename it \(name = \.\.\.\)$")),
     ],
 )
@@ -282,7 +282,7 @@ def test_seed_is_a_whole_number_as_the_other_counts():
 def test_noise_free_names_refuse_the_noise_on_every_path():
     from flatfree.scenarios import named_scenario
 
-    msg = (r"noise = True: the scenario's name 'paper-noise-free' says noise-free; run 'paper' "
+    msg = (r"noise = true: the scenario's name 'paper-noise-free' says noise-free; run 'paper' "
            r"for the noisy variant, or rename it \(name = \.\.\.\)$")
     sc = named_scenario("paper-noise-free")
     with pytest.raises(ValueError, match=rf"^{msg}"):

@@ -587,13 +587,20 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
     (``--control-period``) runs the controller at that period with its windows and denoisers
     rescaled to keep their durations (:meth:`~flatfree.scenario.Scenario.with_control_period`),
     before the ``--set`` options. ``noise`` is applied as the setting
-    ``noise=true`` / ``noise=false`` before them, so that a scenario named ``...-noise-free``
+    ``noise=true`` / ``noise=false`` (named ``--noise`` / ``--no-noise`` in its errors) before
+    them, so that a scenario named ``...-noise-free``
     (which the scenario refuses with the noise on) can take ``--noise --set name=NAME``. A
     bundled car, track or recording comes out in its own spelling (``--track monza``:
     ``Monza``; :class:`~flatfree.scenario.Scenario`). Raises :class:`InputError` (exit 2) on
     bad input.
     """
-    from flatfree.scenario import _part_errors, scenario_with_settings
+    from flatfree.scenario import (
+        _part_errors,
+        _Setting,
+        _settings,
+        _with_settings,
+        scenario_with_settings,
+    )
     from flatfree.vehicles.params import bundled_name
 
     if track is not None and recording is not None:
@@ -634,7 +641,10 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
             changes["seed"] = seed
         if duration_s is not None:
             changes["timing"] = dataclasses.replace(sc.timing, duration_s=duration_s)
-        noise_setting = [] if noise is None else [f"noise={'true' if noise else 'false'}"]
+        # --noise as the setting noise=true, named as the option in the messages
+        noise_setting = [] if noise is None else [_Setting(
+            f"noise={str(noise).lower()}", ("noise",), noise, str(noise).lower(),
+            shown="--noise" if noise else "--no-noise")]
         sc = sc.with_(**changes)
         if vehicle is not None:  # its file read now: its error is the option's, not the run's
             for *_, exc in _part_errors(sc, controller=False):
@@ -650,7 +660,7 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
                 sc = scenario_with_settings(sc, {key: value})
         if control_period_s is not None:
             sc = sc.with_control_period(control_period_s)
-        sc = scenario_with_settings(sc, [*noise_setting, *settings])
+        sc = _with_settings(sc, [*noise_setting, *_settings(settings)])
     except ValueError as exc:
         raise _fail(str(exc)) from None
     return sc

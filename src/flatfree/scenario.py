@@ -470,7 +470,7 @@ class Scenario:
         boolean("noise", self.noise)
         if self.noise and self.name.endswith(NOISE_FREE_SUFFIX):
             raise ValueError(
-                f"noise = True: the scenario's name {self.name!r} says noise-free; run "
+                f"noise = true: the scenario's name {self.name!r} says noise-free; run "
                 f"{self.name.removesuffix(NOISE_FREE_SUFFIX)!r} for the noisy variant, or "
                 "rename it (name = ...)")
         for k, v in self.vehicle_overrides.items():
@@ -841,6 +841,9 @@ class _Setting:
     path: tuple[str, ...]
     value: Any
     text: str | None  # the value's text of a "path=value" string (None: from a mapping)
+    #: how the messages name a setting the user gave as something else, e.g. the command
+    #: line's option "--noise" (None: "setting LABEL")
+    shown: str | None = None
 
 
 def _parse_value(text: str) -> Any:
@@ -941,7 +944,7 @@ def _expand(st: _Setting) -> list[_Setting]:
         return [dataclasses.replace(st, value=None, text="")]
     out = []
     for key, value in st.value.items():
-        out.extend(_expand(_Setting(st.label, (*st.path, str(key)), value, None)))
+        out.extend(_expand(_Setting(st.label, (*st.path, str(key)), value, None, st.shown)))
     return out
 
 
@@ -951,7 +954,7 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
     for arr in _TABLE_ARRAYS:
         if path[:len(arr)] == arr:
             name = ".".join(arr)
-            raise ValueError(f"setting {st.label}: {name} is an array of tables ([[{name}]]), "
+            raise ValueError(f"{_labels([st])}: {name} is an array of tables ([[{name}]]), "
                              "which a setting cannot address: set it in a TOML file "
                              "(flatfree scenario new)")
     node = doc
@@ -961,20 +964,20 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
         if key not in node:  # a table the scenario does not hold (or a setting reset)
             if i == 0 and not _is_table(prefix):
                 valid = ", ".join(t for t in _TABLES if t != "fault")
-                raise ValueError(f"setting {st.label}: {dotted} is not a table of a scenario; "
+                raise ValueError(f"{_labels([st])}: {dotted} is not a table of a scenario; "
                                  f"tables: {valid}")
             if i > 0 and not _is_table(prefix):
-                raise ValueError(f"setting {st.label}: {'.'.join(prefix[:-1])} has no table "
+                raise ValueError(f"{_labels([st])}: {'.'.join(prefix[:-1])} has no table "
                                  f"{key!r}")
             node[key] = {}
         elif not isinstance(node[key], dict):
-            raise ValueError(f"setting {st.label}: {dotted} = {node[key]!r} is not a table, "
+            raise ValueError(f"{_labels([st])}: {dotted} = {node[key]!r} is not a table, "
                              f"so it has no field {path[i + 1]!r}")
         node = node[key]
     key, dotted = path[-1], ".".join(path)
     value = _typed(st)
     if _is_table(path) and value is not None:  # (an inline table was merged: _expand)
-        raise ValueError(f"setting {st.label}: {dotted} is a table: set one of its fields "
+        raise ValueError(f"{_labels([st])}: {dotted} is a table: set one of its fields "
                          f"({dotted}.FIELD=VALUE), several in an inline table "
                          f"({dotted}={{FIELD = VALUE, ...}}), or nothing after the = for "
                          "its defaults")
@@ -987,7 +990,7 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
 
             value = tomllib.loads(tomli_w.dumps({"v": value}))["v"]  # as a TOML file holds it
         except (TypeError, ValueError):
-            raise ValueError(f"setting {st.label}: {dotted} = {value!r}: not a TOML value "
+            raise ValueError(f"{_labels([st])}: {dotted} = {value!r}: not a TOML value "
                              "(number, boolean, string, array or table)") from None
         node[key] = value
     # a track replaces the recording and a recording the track (as --track, --recording do),
@@ -1064,7 +1067,13 @@ def scenario_with_settings(sc: Scenario,
         of the resulting scenario (NaN is refused wherever a number is checked): the message
         names the setting as written, the field and the value.
     """
-    items = [leaf for st in _settings(settings) for leaf in _expand(st)]
+    return _with_settings(sc, _settings(settings))
+
+
+def _with_settings(sc: Scenario, settings: list[_Setting]) -> Scenario:
+    """:func:`scenario_with_settings` of parsed settings (:func:`_settings`; ``flatfree run``
+    adds its ``--noise`` as one, named so in the messages)."""
+    items = [leaf for st in settings for leaf in _expand(st)]
     if not items:
         return sc
     explicit = {s.path for s in items if s.value is not None}
@@ -1087,8 +1096,13 @@ def scenario_with_settings(sc: Scenario,
 
 
 def _labels(items: list[_Setting]) -> str:
-    labels = list(dict.fromkeys(s.label for s in items))  # an inline table's keys share one
-    return f"setting{'s' if len(labels) > 1 else ''} {', '.join(labels)}"
+    """The settings as the messages name them: ``setting a=1`` / ``settings a=1, b=2``, an
+    option as itself (``--noise``); an inline table's keys, which share a label, once."""
+    shown = list(dict.fromkeys(s.shown for s in items if s.shown is not None))
+    labels = list(dict.fromkeys(s.label for s in items if s.shown is None))
+    if labels:
+        shown.append(f"setting{'s' if len(labels) > 1 else ''} {', '.join(labels)}")
+    return ", ".join(shown)
 
 
 def _controller_error(sc: Scenario) -> Exception | None:
