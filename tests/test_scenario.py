@@ -862,9 +862,24 @@ def test_a_car_the_model_free_settings_were_not_tuned_on_is_warned_about(tmp_pat
                named_scenario("paper", duration_s=1.0).with_(vehicle="dallara_av21")
                .with_settings(["controller_settings.estimator_lat=imu"])):
         with pytest.warns(UserWarning, match=r"alpha_lat at (its default 30 \(the "
-                                             r"peugeot406's\)|48.9 \(peugeot406's\))") as got:
+                                             r"peugeot406's tuning with estimator_lat = 'imu', "
+                                             r"not with the 'algebraic' one in use\)|"
+                                             r"48.9 \(peugeot406's\))") as got:
             prepare(sc)
         assert any("set controller_settings.alpha_lat = 60" in str(w.message) for w in got)
+    # the default 30 is the peugeot406's inertial-unit tuning, not its algebraic one (48.9):
+    # the warning said "its default 30 (the peugeot406's)" with either estimator
+    car = str(copy)
+    for extra, note in (([], ("the peugeot406's tuning with estimator_lat = 'imu', not with "
+                              "the 'algebraic' one in use")),
+                        (["controller_settings.estimator_lat=imu"],
+                         "the peugeot406's tuning with estimator_lat = 'imu')")):
+        sc = named_scenario("paper", vehicle=car, duration_s=1.0).with_settings(
+            ["controller_settings=", "controller_settings.wn_lat=6", *extra])
+        with pytest.warns(UserWarning, match="alpha_lat") as got:
+            prepare(sc)
+        msg = next(str(w.message) for w in got if "alpha_lat" in str(w.message))
+        assert f"alpha_lat at its default 30 ({note}" in msg, msg
     # an untuned car's message quotes its steer gain beside the tuned cars' (the algebraic
     # estimator's: the peugeot406's 48.9; with the inertial one its 30, the defaults')
     with pytest.warns(UserWarning, match=r"this car's 119; peugeot406: 65, tuned 30; "

@@ -239,7 +239,8 @@ def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
                     settings: Mapping[str, object], *, steer_gain: float | None = None) -> None:
     """Warn that ``settings`` (a scenario's ``controller_settings``) run ``controller`` on
     ``vehicle`` with an alpha_lat not tuned for it: alpha_lat is left at its default (the
-    peugeot406's base) or is another tuned car's (:data:`TUNED_VEHICLES`; a scenario's
+    peugeot406's with the inertial unit's estimator; the message says whose tuning it is for
+    the estimator in use) or is another tuned car's (:data:`TUNED_VEHICLES`; a scenario's
     settings kept when its car changed), and the car is not one whose tuning has that value
     -- a car tuned too (the message gives its value, :func:`natural_settings`), a preset
     without a tuning, or a file, whatever it holds. alpha_lat follows the car's steer gain;
@@ -273,7 +274,22 @@ def warn_if_untuned(vehicle: str | os.PathLike[str], controller: str,
     if "alpha_lat" in settings and not owners:
         return  # the user's own value
     if "alpha_lat" not in settings:
-        whose = f"at its default {default:g} (the peugeot406's)"
+        # whose tuning the default is: the mfc-natural's depends on the estimator (the
+        # peugeot406's inertial-unit tuning keeps the default 30, its algebraic one has 48.9)
+        same = [c for c in tunings if tuned(c) == default]
+        if controller != "mfc-natural":
+            note = f"the {' and '.join(same)}'s" if same else "no tuned car's"
+        else:
+            est = "imu" if imu else "algebraic"
+            other = [c for c in tunings if c not in same and tuned(c, not imu) == default]
+            if same:
+                note = f"the {' and '.join(same)}'s tuning with estimator_lat = {est!r}"
+            elif other:
+                note = (f"the {' and '.join(other)}'s tuning with estimator_lat = "
+                        f"{'algebraic' if imu else 'imu'!r}, not with the {est!r} one in use")
+            else:
+                note = f"no tuned car's with estimator_lat = {est!r}"
+        whose = f"at its default {default:g} ({note})"
     else:
         whose = f"at {alpha:g} ({' and '.join(owners)}'s)"
     if car in tunings:
