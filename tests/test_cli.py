@@ -901,6 +901,30 @@ def test_run_with_set_runs_the_changed_scenario(runner, tmp_path):
     assert sc.seed == 5 and sc.timing.duration_s == 2.0 and sc.noise is False
 
 
+def test_the_help_examples_with_a_seed_have_noise_to_seed(runner, tmp_path, monkeypatch):
+    """`run --help` showed `flatfree run my_scenario.toml --no-noise --seed 2 --out run1`,
+    which says "note: --seed has no effect": each example with --seed, on the template of
+    `scenario new` for its file, runs (briefly, without --out) with no such note."""
+    import shlex
+
+    monkeypatch.chdir(tmp_path)
+    assert _invoke(runner, ["scenario", "new", "my_scenario.toml"]).exit_code == 0
+    examples = []
+    for cmd in ([], ["run"]):
+        text = _invoke(runner, [*cmd, "--help"]).stdout
+        examples += [ln.split("flatfree ", 1)[1] for ln in text.splitlines()
+                     if ln.strip().startswith("flatfree run") and " --seed " in ln]
+    assert len(examples) >= 2, examples
+    for ex in examples:
+        args = shlex.split(ex.split("  ")[0])  # the command, without its comment
+        if "--out" in args:
+            i = args.index("--out")
+            del args[i:i + 2]
+        res = _invoke(runner, [*args, "--duration", "0.01"])
+        assert res.exit_code == 0, (ex, res.output)
+        assert "has no effect" not in res.stderr, (ex, res.stderr)
+
+
 def test_set_is_documented_in_the_help(runner):
     for cmd in ("run", "demo"):
         text = _invoke(runner, [cmd, "--help"]).stdout

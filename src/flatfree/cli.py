@@ -796,7 +796,7 @@ Examples:
   flatfree run                                   the paper's scenario (mfc-natural, Norisring)
   flatfree run --controller mfc-flat --track Monza --json
   flatfree run --controller flatness --cf-scale 0.3 --cr-scale 0.3
-  flatfree run my_scenario.toml --no-noise --seed 2 --out run1
+  flatfree run my_scenario.toml --seed 2 --out run1      another draw of the sensor noise
   flatfree run paper-mismatch                    a named scenario
   flatfree run --recording LVMS_23_01_04_B --json     adds steer_rms_vs_recorded_deg
   flatfree run --track my_track.csv --duration 30
