@@ -191,6 +191,14 @@ def test_unknown_name_lists_the_valid_ones():
         T.load_track("/nonexistent/dir/track.csv")
 
 
+def test_a_file_that_cannot_be_read_is_named(tmp_path):
+    """Any OS error reading a CSV (here a folder) is a ValueError naming it, no traceback."""
+    from flatfree.tracks._io import read_csv
+
+    with pytest.raises(ValueError, match=r"^mine\.csv: cannot read it \(Is a directory\)$"):
+        read_csv(tmp_path, "mine.csv")
+
+
 def test_a_race_line_is_bundled_only(tmp_path):
     """raceline=True on a user's file used to return the file's centerline, renamed "...
     raceline": there are bundled race lines only, so a file (or a path) is refused by name."""

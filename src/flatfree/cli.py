@@ -717,7 +717,7 @@ def _simulate(sc, warned: list[str]):
     try:
         out = _simulate_collecting(sc, warned)
     except ValueError as exc:
-        raise _fail(f"scenario {sc.name!r}, controller {sc.controller}: {exc}") from None
+        raise _fail(f"scenario {sc.name!r} (controller {sc.controller}): {exc}") from None
     for w in warned:
         _err(f"warning: {w}")
     return out

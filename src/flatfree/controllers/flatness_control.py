@@ -995,7 +995,10 @@ class FlatnessControlStatus:
     n_held : int
         Steps that held the previous output (bad measurement or reference).
     e1, e2, e2_dot : float
-        Last errors ``y1_ref - y1`` [m/s], ``y2_ref - y2`` [kg m^2/s], ``y2_ref' - y2'``.
+        Last errors ``y1_ref - y1`` [m/s], ``y2_ref - y2`` [kg m^2/s], ``y2_ref' - y2'`` (the
+        paper's sign for the flatness law, reference minus output; the intelligent
+        controllers' :class:`~flatfree.controllers.intelligent.IntelligentStatus` keeps theirs,
+        ``y - y_ref``).
     y2_dot : float
         Measured ``y2'`` used [kg m^2/s^2] (model or algebraic).
     integral1, integral2 : float

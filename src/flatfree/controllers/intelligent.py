@@ -1070,7 +1070,8 @@ class IntelligentStatus:
     f_hat : float
         Last F estimate, y-unit/s^nu.
     error : float
-        Last ``e = y - y_ref``.
+        Last ``e = y - y_ref`` (the paper's sign for the ultra-local model's law; the flatness
+        controller's errors are reference minus output).
     error_rate : float
         Last ``e'`` estimate (nu = 2).
     integral : float

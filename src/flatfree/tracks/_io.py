@@ -323,6 +323,8 @@ def read_csv(file, source: str) -> RawData:
         raise ValueError(f"{source}: file not found") from None
     except UnicodeDecodeError as exc:
         raise ValueError(f"{source}: not a UTF-8 text file ({exc})") from None
+    except OSError as exc:  # a folder, no permission, ...
+        raise ValueError(f"{source}: cannot read it ({exc.strerror or exc})") from None
 
     header: tuple[str, ...] | None = None  # the header's cells, as written
     header_line = 0
