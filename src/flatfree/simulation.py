@@ -72,7 +72,7 @@ import numpy as np
 from numba import njit
 
 from flatfree._validate import as_real, whole
-from flatfree._vecmath import all_finite, no_refcount
+from flatfree._vecmath import all_finite, no_refcount, stack_array
 from flatfree._warn import warn
 from flatfree.actuators import ActuatorParams, actuate_step, actuator_state
 from flatfree.controllers.flatness import singular_speed
@@ -94,7 +94,15 @@ from flatfree.controllers.vehicle import (
 )
 from flatfree.metrics import wrap_angle
 from flatfree.models.bicycle3dof import Bicycle3DoFParams, rk4_step_into
-from flatfree.models.tendof import NU, TenDoF, TenDoFState, drive_speed, rk4_step_kernel
+from flatfree.models.tendof import (
+    LANE_TABLE_SHAPE,
+    NU,
+    TenDoF,
+    TenDoFState,
+    drive_speed,
+    lane_table,
+    rk4_step_table,
+)
 from flatfree.scenario import Scenario
 from flatfree.scenarios import SCENARIO_NAMES, named_scenario, warn_if_untuned
 from flatfree.sensors import SENSOR_CHANNELS, sense_step
@@ -354,6 +362,10 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
     """
     xn, work, diag, u, truth, meas_s = scratch
     n = x.shape[0]
+    # the 10DoF tyre lanes' coefficient table, filled once for the run (not at every step)
+    lt = stack_array(LANE_TABLE_SHAPE[0], LANE_TABLE_SHAPE[1])
+    if plant == 0:
+        lane_table(lt, tpf, tpr)
     length = g[g.shape[0] - 1, 0]
     off = 3  # index of vx in both plant layouts (X, Y, psi, vx, vy, r, ...)
     if ls[_LS_INIT] == 0.0:
@@ -574,7 +586,7 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         if c_log == log_every:
             c_log = 0
         if plant == 0:
-            rk4_step_kernel(x, u, dt, mp, tpf, tpr, x, work, diag)  # in place (allowed)
+            rk4_step_table(x, u, dt, mp, tpf, tpr, lt, x, work, diag)  # in place (allowed)
         else:
             rk4_step_into(x, u, dt, bp, 0.0, 0.0, False, xn)
             for i in range(n):

@@ -448,7 +448,9 @@ def _mf_combined_lane(kappa, alpha, fz_in, mu_scale, ta, tb, use_a, general, g_p
     """One lane of :func:`mf_combined4`: :func:`mf_combined` without branches.
 
     ``ta``, ``tb`` are the two tyres' coefficient arrays as tuples (``_vecmath.as_tuple``) and
-    ``use_a`` picks the lane's one. ``general=False`` leaves out the terms that vanish
+    ``use_a`` picks the lane's one; the 10DoF model passes its lane's column of a coefficient
+    table twice instead (``models.tendof.lane_table``: one vector load per coefficient).
+    ``general=False`` leaves out the terms that vanish
     identically for both tyres (checked by the caller with :func:`_lanes_general`):
     ``S_Hxalpha``, ``S_Hykappa``, ``S_Vykappa`` and the ``sin(p_Ky4 atan z)`` form of 4.E25;
     ``general=True`` evaluates them and selects per lane, as ``mf_combined`` branches. The four

@@ -240,7 +240,9 @@ __all__ = [
     "Wheel",
     "drive_speed",
     "rhs_kernel",
+    "lane_table",
     "rk4_step_kernel",
+    "rk4_step_table",
     "simulate_kernel",
     "stable_step",
 ]
@@ -563,6 +565,35 @@ def _of_wheel(t, w):
     return (t[0] if w == 0 else t[1]) if w < 2 else (t[2] if w == 2 else t[3])
 
 
+@njit(**dict(_JIT_NO_REFCOUNT, forceinline=True))
+def _check_lane_table(lt):
+    """ValueError unless ``lt`` is a C-contiguous float64[len(TP), 4] (the lanes then know its
+    strides as constants)."""
+    if lt.shape[0] != _NTP or lt.shape[1] != 4 or lt.strides[0] != 32 or lt.strides[1] != 8:
+        raise ValueError("the tyre lane table must be a C-contiguous (len(TP), 4) array")
+
+
+#: Shape of the tyre lanes' coefficient table (:func:`lane_table`).
+LANE_TABLE_SHAPE = (_NTP, 4)
+
+
+@njit(**dict(_JIT_NO_REFCOUNT, forceinline=True))
+def lane_table(lt, tpf, tpr):
+    """Fill ``lt`` (float64[len(TP), 4], C-contiguous) with the tyre lanes' coefficients:
+    column w holds wheel w's tyre (``tpf`` for the front wheels 0, 1, ``tpr`` for the rear
+    ones), so that a coefficient of the four lanes is one vector load. Before, the lanes took
+    both tyres as tuples: ~100 values loaded, spilled to the stack and paired by shuffles at
+    every right-hand side (benchmarks/README.md "The tyre lanes' coefficients as a table")."""
+    _check_lane_table(lt)
+    for k in range(_NTP):
+        a = tpf[k]
+        b = tpr[k]
+        lt[k, 0] = a
+        lt[k, 1] = a
+        lt[k, 2] = b
+        lt[k, 3] = b
+
+
 @njit(**_JIT_NO_REFCOUNT)
 def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     """Time derivative of the 10DoF state (module docstring), written into ``dx``.
@@ -592,7 +623,9 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     """
     cl, sl, cr_, sr_ = _steer_trig(u, p)
     cb, sbx, sby = _bank_trig(u)
-    _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, True)
+    lt = vm.stack_array(_NTP, 4)
+    lane_table(lt, tpf, tpr)
+    _rhs_steered(x, u, p, tpf, tpr, lt, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, True)
 
 
 @njit(**dict(_JIT_NO_REFCOUNT, forceinline=True))
@@ -673,7 +706,7 @@ def _wheel_pass1(w, x, p, dx, body, sums):
 
 
 @njit(**_JIT_NO_REFCOUNT)
-def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, plain_slip):
+def _rhs_steered(x, u, p, tpf, tpr, lt, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, plain_slip):
     """:func:`rhs_kernel` with the steer angles' cos and sin given (:func:`_steer_trig`), and
     the road bank's (:func:`_bank_trig`).
 
@@ -754,10 +787,11 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
     # ---- tyre forces, wheel axes ([P12] 4.3.2; flatfree.tires) ----
     if p[_LANES] != 0.0:
         # the four wheels in SIMD lanes: the loop of flatfree.tires.mf_combined4 with the slip
-        # angle's atan in it. Its inputs are values (tuples), its outputs contiguous rows of
-        # res, which no argument can alias: LLVM vectorises it with plain vector stores.
-        ta = vm.as_tuple(tpf, _NTP)
-        tb = vm.as_tuple(tpr, _NTP)
+        # angle's atan in it. Its per-wheel inputs are values (tuples), its outputs contiguous
+        # rows of res, which no argument can alias: LLVM vectorises it with plain vector
+        # stores. The coefficients come from lt (lane_table): lt[:, w] is wheel w's tyre, so a
+        # coefficient of the four lanes is one vector load (the strides checked: constants)
+        _check_lane_table(lt)
         # the variant, decided once per model (_build_params: flatfree.tires._lanes_general,
         # _lanes_g_plain on the two tyres), not at every call
         variant = p[_LVAR]
@@ -767,7 +801,7 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
                 res[0, w] = alpha
                 res[1, w], res[2, w] = _mf_combined_lane(_of_wheel(ke4, w), alpha,
                                                          _of_wheel(fz4, w), _of_wheel(mu4, w),
-                                                         ta, tb, w < 2, True)
+                                                         lt[:, w], lt[:, w], True, True)
         elif variant == 1.0:
             # weighting curves with E = 0 (flatfree.tires._mf_combined_lane, g_plain)
             for w in range(4):
@@ -775,14 +809,14 @@ def _rhs_steered(x, u, p, tpf, tpr, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, pl
                 res[0, w] = alpha
                 res[1, w], res[2, w] = _mf_combined_lane(_of_wheel(ke4, w), alpha,
                                                          _of_wheel(fz4, w), _of_wheel(mu4, w),
-                                                         ta, tb, w < 2, False, True)
+                                                         lt[:, w], lt[:, w], True, False, True)
         else:
             for w in range(4):
                 alpha = vm.atan(_of_wheel(tan4, w))
                 res[0, w] = alpha
                 res[1, w], res[2, w] = _mf_combined_lane(_of_wheel(ke4, w), alpha,
                                                          _of_wheel(fz4, w), _of_wheel(mu4, w),
-                                                         ta, tb, w < 2, False)
+                                                         lt[:, w], lt[:, w], True, False)
     else:
         # scalar reference: slip_angle's atan and mf_combined, wheel by wheel
         for w in range(4):
@@ -941,8 +975,19 @@ def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     ``diag`` a float64[4, 6] one (left holding the diagnostics of the last stage); other
     lengths raise ValueError. ``out`` may be ``x`` itself.
     """
+    lt = vm.stack_array(_NTP, 4)
+    lane_table(lt, tpf, tpr)
+    rk4_step_table(x, u, dt, p, tpf, tpr, lt, out, work, diag)
+
+
+@njit(**_JIT_NO_REFCOUNT)
+def rk4_step_table(x, u, dt, p, tpf, tpr, lt, out, work, diag):
+    """:func:`rk4_step_kernel` with the tyre lanes' coefficient table ``lt`` given
+    (:func:`lane_table` of ``tpf``, ``tpr``): a loop of many steps fills it once, not at every
+    step (208 stores, ~30 ns a step)."""
     if x.shape[0] != NX or out.shape[0] != NX or work.shape[0] < 5 or work.shape[1] != NX:
         raise ValueError("rk4_step_kernel: x and out must have 22 entries, work shape (5, 22)")
+    _check_lane_table(lt)
     # the state's length as a constant: LLVM unrolls the stage updates below into scalar code.
     # With a run-time length it vectorised them, and their 4-wide loads of k1 .. k4 waited for
     # the right-hand side's scalar stores just before (a vector load cannot take its data from
@@ -964,21 +1009,21 @@ def rk4_step_kernel(x, u, dt, p, tpf, tpr, out, work, diag):
     # counters to tell: benchmarks/README.md "One right-hand side for the four RK4 stages")
     inner = bool(False)  # noqa: UP018 (not a literal: the point)
     last = bool(True)  # noqa: UP018
-    _rhs_steered(x, u, p, tpf, tpr, k1, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
+    _rhs_steered(x, u, p, tpf, tpr, lt, k1, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     h2 = 0.5 * dt
     for i in range(n):
         xt[i] = x[i] + h2 * k1[i]
-    _rhs_steered(xt, u, p, tpf, tpr, k2, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
+    _rhs_steered(xt, u, p, tpf, tpr, lt, k2, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     for i in range(n):
         xt[i] = x[i] + h2 * k2[i]
-    _rhs_steered(xt, u, p, tpf, tpr, k3, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
+    _rhs_steered(xt, u, p, tpf, tpr, lt, k3, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     for i in range(n):
         xt[i] = x[i] + dt * k3[i]
     # the weighted sum's first terms, in its order of operations, before the last stage (so
     # off its path; k2 is free again): the update after it is short enough to be unrolled too
     for i in range(n):
         k2[i] = k1[i] + 2.0 * (k2[i] + k3[i])
-    _rhs_steered(xt, u, p, tpf, tpr, k4, diag, cl, sl, cr_, sr_, cb, sbx, sby, last)
+    _rhs_steered(xt, u, p, tpf, tpr, lt, k4, diag, cl, sl, cr_, sr_, cb, sbx, sby, last)
     h6 = dt / 6.0
     for i in range(n):
         out[i] = x[i] + h6 * (k2[i] + k4[i])  # = x + h6 (k1 + 2 (k2 + k3) + k4), bit for bit
@@ -1005,8 +1050,10 @@ def _simulate_steps(x0, us, dt, p, tpf, tpr, xs, work, diag):
     nx = x0.shape[0]
     for i in range(nx):
         xs[0, i] = x0[i]
+    lt = vm.stack_array(_NTP, 4)
+    lane_table(lt, tpf, tpr)
     for k in range(n):
-        rk4_step_kernel(xs[k], us[k], dt, p, tpf, tpr, xs[k + 1], work, diag)
+        rk4_step_table(xs[k], us[k], dt, p, tpf, tpr, lt, xs[k + 1], work, diag)
         if not vm.all_finite(xs[k + 1]):
             return k
     return n
