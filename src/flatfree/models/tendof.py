@@ -625,7 +625,7 @@ def rhs_kernel(x, u, p, tpf, tpr, dx, diag):
     cb, sbx, sby = _bank_trig(u)
     lt = vm.stack_array(_NTP, 4)
     lane_table(lt, tpf, tpr)
-    _rhs_steered(x, u, p, tpf, tpr, lt, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, True)
+    _rhs_steered(x, u, p, lt, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, True)
 
 
 @njit(**dict(_JIT_NO_REFCOUNT, forceinline=True))
@@ -706,9 +706,10 @@ def _wheel_pass1(w, x, p, dx, body, sums):
 
 
 @njit(**_JIT_NO_REFCOUNT)
-def _rhs_steered(x, u, p, tpf, tpr, lt, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, plain_slip):
-    """:func:`rhs_kernel` with the steer angles' cos and sin given (:func:`_steer_trig`), and
-    the road bank's (:func:`_bank_trig`).
+def _rhs_steered(x, u, p, lt, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby, plain_slip):
+    """:func:`rhs_kernel` with the steer angles' cos and sin given (:func:`_steer_trig`), the
+    road bank's (:func:`_bank_trig`) and the tyres as the table ``lt`` (:func:`lane_table`; the
+    scalar path too: two array arguments fewer, which numba passes as 7 words each).
 
     ``plain_slip = False`` skips the diagnostic plain slip ratio (``diag[:, 5]`` then holds the
     friction scales): the inner RK4 stages, whose diagnostics the next stage overwrites.
@@ -822,8 +823,9 @@ def _rhs_steered(x, u, p, tpf, tpr, lt, dx, diag, cl, sl, cr_, sr_, cb, sbx, sby
         for w in range(4):
             alpha = math.atan(_of_wheel(tan4, w))
             res[0, w] = alpha
+            # the tyre's coefficients as lt's column of the wheel (lane_table: tpf, tpr)
             res[1, w], res[2, w] = mf_combined(_of_wheel(ke4, w), alpha, _of_wheel(fz4, w),
-                                               _of_wheel(mu4, w), tpf if w < 2 else tpr)
+                                               _of_wheel(mu4, w), lt[:, w])
 
     # Everything pass 3 and the body read from p and x is read here, before their first store
     # to dx: the compiler must assume that dx may overlap p and x and would load again after
@@ -1009,21 +1011,21 @@ def rk4_step_table(x, u, dt, p, tpf, tpr, lt, out, work, diag):
     # counters to tell: benchmarks/README.md "One right-hand side for the four RK4 stages")
     inner = bool(False)  # noqa: UP018 (not a literal: the point)
     last = bool(True)  # noqa: UP018
-    _rhs_steered(x, u, p, tpf, tpr, lt, k1, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
+    _rhs_steered(x, u, p, lt, k1, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     h2 = 0.5 * dt
     for i in range(n):
         xt[i] = x[i] + h2 * k1[i]
-    _rhs_steered(xt, u, p, tpf, tpr, lt, k2, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
+    _rhs_steered(xt, u, p, lt, k2, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     for i in range(n):
         xt[i] = x[i] + h2 * k2[i]
-    _rhs_steered(xt, u, p, tpf, tpr, lt, k3, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
+    _rhs_steered(xt, u, p, lt, k3, diag, cl, sl, cr_, sr_, cb, sbx, sby, inner)
     for i in range(n):
         xt[i] = x[i] + dt * k3[i]
     # the weighted sum's first terms, in its order of operations, before the last stage (so
     # off its path; k2 is free again): the update after it is short enough to be unrolled too
     for i in range(n):
         k2[i] = k1[i] + 2.0 * (k2[i] + k3[i])
-    _rhs_steered(xt, u, p, tpf, tpr, lt, k4, diag, cl, sl, cr_, sr_, cb, sbx, sby, last)
+    _rhs_steered(xt, u, p, lt, k4, diag, cl, sl, cr_, sr_, cb, sbx, sby, last)
     h6 = dt / 6.0
     for i in range(n):
         out[i] = x[i] + h6 * (k2[i] + k4[i])  # = x + h6 (k1 + 2 (k2 + k3) + k4), bit for bit
