@@ -494,6 +494,14 @@ def test_controller_option_names_and_describes_the_controller_run(runner, tmp_pa
     res = _invoke(runner, ["run", "--controller", "flatness", "--track", "Monza",
                            "--duration", "1", "--json"])
     assert json.loads(res.stdout)["scenario"] == "paper-flatness"
+    # the stiffness options alone, on the controller the base has: paper-flatness with 0.3 Cf
+    # and 0.3 Cr is paper-mismatch (it kept its name); another scale, described
+    assert build_scenario("paper-flatness", cf_scale=0.3, cr_scale=0.3) == named_scenario(
+        "paper-mismatch")
+    half = build_scenario("paper-flatness", cf_scale=0.5)
+    assert half.name == "paper-flatness"
+    assert half.description == (named_scenario("paper-flatness").description
+                                + "; its model's cf_scale 0.5 (--cf-scale)")
 
 
 def test_vehicle_option_takes_the_cars_natural_settings():

@@ -524,11 +524,13 @@ def _is_file_spec(spec: str | None) -> bool:
     return spec is not None and (Path(spec).is_file() or spec.lower().endswith(".toml"))
 
 
-def _renamed_for_controller(sc, base, *, named: bool, vehicle: str | None):
-    """``sc``, ``base`` with its controller replaced (``--controller``), named and described
-    for the controller it runs: as the named scenario it then is, if any (``paper
-    --controller flatness`` is ``paper-flatness``), else with the base's description saying
-    which controller replaced which."""
+def _renamed_for_controller(sc, base, *, named: bool, vehicle: str | None,
+                            scales: dict[str, float] | None = None):
+    """``sc``, ``base`` with its controller replaced (``--controller``) or its model's
+    stiffness scaled (``--cf-scale``, ``--cr-scale``: ``scales``), named and described for
+    the controller it runs: as the named scenario it then is, if any (``paper --controller
+    flatness`` is ``paper-flatness``, ``paper-flatness --cf-scale 0.3 --cr-scale 0.3`` is
+    ``paper-mismatch``), else with the base's description saying what the options changed."""
     if named:
         mod = _scenarios_module()
         # what a named scenario fixes (the options' seed and duration aside)
@@ -541,7 +543,14 @@ def _renamed_for_controller(sc, base, *, named: bool, vehicle: str | None):
                 continue
             if all(getattr(other, k) == getattr(sc, k) for k in keys):
                 return sc.with_(name=other.name, description=other.description)
-    what = f"the {sc.controller} controller in place of {base.controller} (--controller)"
+    parts = []
+    if sc.controller != base.controller:
+        parts.append(f"the {sc.controller} controller in place of {base.controller} "
+                     "(--controller)")
+    if scales:
+        parts.append("its model's " + ", ".join(f"{k} {v:g}" for k, v in scales.items())
+                     + " (" + ", ".join("--" + k.replace("_", "-") for k in scales) + ")")
+    what = "; ".join(parts)
     return sc.with_(description=f"{base.description}; {what}" if base.description else what)
 
 
@@ -649,10 +658,13 @@ def build_scenario(spec: str | None = None, *, controller: str | None = None,
         if vehicle is not None:  # its file read now: its error is the option's, not the run's
             for *_, exc in _part_errors(sc, controller=False):
                 raise _fail(f"--vehicle: {exc}")
-        if "controller" in changes:  # the name and description said the base's controller
+        scales = {k: v for k, v in (("cf_scale", cf_scale), ("cr_scale", cr_scale))
+                  if v is not None}
+        if "controller" in changes or scales:  # the name and description said the base's
             sc = _renamed_for_controller(sc, base, named=base.name in
                                          _scenarios_module().SCENARIO_NAMES
-                                         and not _is_file_spec(spec), vehicle=vehicle)
+                                         and not _is_file_spec(spec), vehicle=vehicle,
+                                         scales=scales)
         # a new track or a recording, as its setting: the other one and the old file's shape
         # settings go (a --set after this may give them for the new one)
         for key, value in (("reference.track", track), ("reference.recording", recording)):
