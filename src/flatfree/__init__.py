@@ -46,6 +46,8 @@ _API = {
     "gains_from_poles": "flatfree.controllers.flatness_control",
     "NaturalOutputController": "flatfree.controllers.vehicle",
     "MfcNaturalSettings": "flatfree.controllers.vehicle",
+    "FlatOutputController": "flatfree.controllers.flat_output",
+    "MfcFlatSettings": "flatfree.controllers.vehicle",
     "ActuatorParams": "flatfree.actuators",
     # references
     "load_track": "flatfree.tracks",

@@ -2,7 +2,10 @@
 
 - :mod:`flatfree.controllers.flatness`: flat outputs, the maps A and B, the singular speed;
 - :mod:`flatfree.controllers.intelligent`: the ultra-local model and iP / iPI / iPD / iPID;
-- :mod:`flatfree.controllers.vehicle`: the paper's model-free vehicle designs.
+- :mod:`flatfree.controllers.vehicle`: the paper's model-free vehicle designs (and the
+  natural-output one for your own loop, ``NaturalOutputController``);
+- :mod:`flatfree.controllers.flat_output`: the flat-output one for your own loop
+  (``FlatOutputController``).
 """
 
 from flatfree.controllers.intelligent import (

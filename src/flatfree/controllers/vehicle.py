@@ -1189,6 +1189,120 @@ def f_hat_index() -> int:
     return int(IST.F_HAT)
 
 
+class _OwnLoopShell:
+    """What the own-loop shells of the model-free designs share (:class:`NaturalOutputController`,
+    :class:`flatfree.controllers.flat_output.FlatOutputController`): the actuators' model
+    that stands for an unknown applied input, the reset at the actuators' positions, the
+    steer clipped to the range and the reset on an overflowed command. A subclass sets
+    ``_CONTROLLER`` (the engine's name of its design) and ``_SETTINGS`` (its settings class)
+    and builds its kernel's arrays in :meth:`_build`."""
+
+    __slots__ = ("_arrays", "_act", "_act_p", "_act_s", "_dt", "_settings", "_meas", "_ref",
+                 "_prev", "_vx_prev")
+
+    __copy__ = independent_copy
+
+    _CONTROLLER: ClassVar[str]
+    _SETTINGS: ClassVar[type]
+
+    def __init__(self, *, dt: float, actuators: ActuatorParams, settings) -> None:
+        if not isinstance(actuators, ActuatorParams):
+            # {!r:.60}: a VehicleParams' repr runs to hundreds of characters
+            raise ValueError(f"actuators = {actuators!r:.60}: expected flatfree.actuators."
+                             "ActuatorParams (e.g. ActuatorParams.from_vehicle(vehicle))")
+        if settings is None:
+            settings = self._SETTINGS()
+        if not isinstance(settings, self._SETTINGS):
+            raise ValueError(f"settings = {settings!r}: expected {self._SETTINGS.__name__}")
+        self._dt = positive("dt", dt, "s")
+        self._act = actuators
+        self._settings = settings
+        self._meas = np.full(len(MEAS), np.nan)
+        self._ref = np.zeros(len(CREF))
+        self._act_p = actuators.to_array(self._dt)
+        self._prev = np.zeros(2)  # previous commands (torque, steer)
+        warn_if_untuned_period(self._CONTROLLER, settings, self._dt)  # once, not every reset
+        self.reset()
+
+    @property
+    def settings(self):
+        """The controller's settings."""
+        return self._settings
+
+    def _build(self, steer0: float, torque0: float) -> VehicleControllerArrays:
+        raise NotImplementedError
+
+    def reset(self, *, steer0: float = 0.0, torque0: float = 0.0) -> None:
+        """Fresh estimators; ``steer0`` [rad] and ``torque0`` [N m] are the actuators' positions,
+        held until the estimator windows are full (``window_lon`` / ``window_lat`` samples).
+        Each within the actuators' range (``ValueError`` otherwise: ``|steer0| <= max_steer``,
+        ``-max_brake_torque <= torque0 <= max_drive_torque``)."""
+        a = self._act
+        steer0 = in_range("steer0", steer0, -a.max_steer, a.max_steer, "rad")
+        torque0 = in_range("torque0", torque0, -a.max_brake_torque, a.max_drive_torque, "N m")
+        self._arrays = self._build(steer0, torque0)
+        self._act_s = actuator_state(self._act, self._dt, steer0=steer0, torque0=torque0)
+        self._prev[:] = (torque0, steer0)
+        self._vx_prev = math.nan
+
+    def _applied(self, vx: float, applied_torque, applied_steer) -> tuple[float, float]:
+        """The inputs applied over the last period: the caller's where given and finite, else
+        the previous commands through the actuators' model (at the speed measured then)."""
+        applied_torque = _optional_real("applied_torque", applied_torque, "N m")
+        applied_steer = _optional_real("applied_steer", applied_steer, "rad")
+        prev = self._prev
+        vx_then = vx if math.isnan(self._vx_prev) else self._vx_prev
+        model_tw, model_delta = actuate_step(prev[0], prev[1], vx_then, self._act_p,
+                                             self._act_s)
+        # a non-finite applied value (a lost feedback frame) counts as unknown: the model's
+        a_tw = (model_tw if applied_torque is None or not math.isfinite(applied_torque)
+                else applied_torque)
+        a_delta = (model_delta if applied_steer is None or not math.isfinite(applied_steer)
+                   else applied_steer)
+        return a_tw, a_delta
+
+    def _step_kernel(self, vx: float, a_tw: float, a_delta: float, inputs) -> tuple[float, float]:
+        """:func:`vehicle_step` on the measurement and reference arrays filled by the caller;
+        the steer clipped to the actuators' range; a non-finite command resets and raises
+        (``inputs()`` gives the step's arguments for the message)."""
+        z = self._arrays
+        tw, delta = vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon,
+                                 z.f_lat, z.f_yaw, self._meas, self._ref, a_tw, a_delta)
+        # a held step (a standstill, a NaN input) returns the steer applied last, which the
+        # caller may report beyond the range (applied_steer); in the engine, and for the
+        # law's own outputs, it is within the range already
+        lim = self._act.max_steer
+        if delta > lim:
+            delta = lim
+        elif delta < -lim:
+            delta = -lim
+        if not (math.isfinite(tw) and math.isfinite(delta)):  # overflowed (Raises)
+            self._overflowed(tw, delta, inputs())
+        prev = self._prev
+        prev[0] = tw
+        prev[1] = delta
+        self._vx_prev = vx
+        return tw, delta
+
+    def _overflowed(self, tw: float, delta: float, inputs: dict) -> None:
+        """Reset at the last finite commands and raise (``step``, Raises)."""
+        a = self._act  # (within the ranges reset checks: the commands are, to round-off)
+        torque0 = min(max(float(self._prev[0]), -a.max_brake_torque), a.max_drive_torque)
+        steer0 = min(max(float(self._prev[1]), -a.max_steer), a.max_steer)
+        self.reset(steer0=steer0, torque0=torque0)
+        raise nonfinite_command(
+            type(self).__name__, {"torque": tw, "steer": delta}, inputs,
+            f"the controller was reset (reset(steer0={steer0!r}, torque0={torque0!r}), the "
+            "last finite commands: its windows held the overflowed values)")
+
+
+def _optional_real(name: str, value, unit: str) -> float | None:
+    """``None`` or one real number (``ValueError`` naming ``name`` otherwise)."""
+    if value is None or isinstance(value, float):
+        return value
+    return real(name, value, unit)
+
+
 @dataclass(frozen=True, slots=True)
 class NaturalOutputStatus:
     """Snapshot of a :class:`NaturalOutputController` after its last step.
@@ -1215,7 +1329,7 @@ class NaturalOutputStatus:
     steer_held: bool
 
 
-class NaturalOutputController:
+class NaturalOutputController(_OwnLoopShell):
     """The paper's model-free controller on natural outputs for a user's own loop.
 
     ``reset()`` / ``step()`` over the same compiled kernel as the closed-loop engine
@@ -1269,30 +1383,14 @@ class NaturalOutputController:
     ...     settings=imu.for_period(0.01))
     """
 
-    __slots__ = ("_arrays", "_act", "_act_p", "_act_s", "_dt", "_settings", "_meas", "_ref",
-                 "_prev", "_vx_prev")
+    __slots__ = ()
 
-    __copy__ = independent_copy
+    _CONTROLLER = "mfc-natural"
+    _SETTINGS = MfcNaturalSettings
 
     def __init__(self, *, dt: float, actuators: ActuatorParams,
                  settings: MfcNaturalSettings | None = None) -> None:
-        if not isinstance(actuators, ActuatorParams):
-            # {!r:.60}: a VehicleParams' repr runs to hundreds of characters
-            raise ValueError(f"actuators = {actuators!r:.60}: expected flatfree.actuators."
-                             "ActuatorParams (e.g. ActuatorParams.from_vehicle(vehicle))")
-        if settings is None:
-            settings = MfcNaturalSettings()
-        if not isinstance(settings, MfcNaturalSettings):
-            raise ValueError(f"settings = {settings!r}: expected MfcNaturalSettings")
-        self._dt = positive("dt", dt, "s")
-        self._act = actuators
-        self._settings = settings
-        self._meas = np.full(len(MEAS), np.nan)
-        self._ref = np.zeros(len(CREF))
-        self._act_p = actuators.to_array(self._dt)
-        self._prev = np.zeros(2)  # previous commands (torque, steer)
-        warn_if_untuned_period("mfc-natural", settings, self._dt)  # once, not at every reset
-        self.reset()
+        super().__init__(dt=dt, actuators=actuators, settings=settings)
 
     @property
     def settings(self) -> MfcNaturalSettings:
@@ -1304,14 +1402,11 @@ class NaturalOutputController:
         held until the estimator windows are full (``window_lon`` / ``window_lat`` samples,
         100 each by default). Each within the actuators' range (``ValueError`` otherwise:
         ``|steer0| <= max_steer``, ``-max_brake_torque <= torque0 <= max_drive_torque``)."""
-        a = self._act
-        steer0 = in_range("steer0", steer0, -a.max_steer, a.max_steer, "rad")
-        torque0 = in_range("torque0", torque0, -a.max_brake_torque, a.max_drive_torque, "N m")
-        self._arrays = build_mfc("mfc-natural", self._settings, dt=self._dt,
-                                 actuators=self._act, steer0=steer0, torque0=torque0)
-        self._act_s = actuator_state(self._act, self._dt, steer0=steer0, torque0=torque0)
-        self._prev[:] = (torque0, steer0)
-        self._vx_prev = math.nan
+        super().reset(steer0=steer0, torque0=torque0)
+
+    def _build(self, steer0: float, torque0: float) -> VehicleControllerArrays:
+        return build_mfc("mfc-natural", self._settings, dt=self._dt, actuators=self._act,
+                         steer0=steer0, torque0=torque0)
 
     def step(self, *, vx: float, r: float, e_y: float, kappa: float, vx_ref: float,
              ax_ref: float = 0.0, e_y_ref: float = 0.0, e_y_ref_dot: float = 0.0,
@@ -1400,19 +1495,7 @@ class NaturalOutputController:
             e_y_ref_ddot = real("e_y_ref_ddot", e_y_ref_ddot, "m/s^2")
         if not isinstance(e_y_ddot, float):
             e_y_ddot = real("e_y_ddot", e_y_ddot, "m/s^2")
-        if applied_torque is not None and not isinstance(applied_torque, float):
-            applied_torque = real("applied_torque", applied_torque, "N m")
-        if applied_steer is not None and not isinstance(applied_steer, float):
-            applied_steer = real("applied_steer", applied_steer, "rad")
-        prev = self._prev
-        vx_then = vx if math.isnan(self._vx_prev) else self._vx_prev
-        model_tw, model_delta = actuate_step(prev[0], prev[1], vx_then, self._act_p,
-                                             self._act_s)
-        # a non-finite applied value (a lost feedback frame) counts as unknown: the model's
-        a_tw = (model_tw if applied_torque is None or not math.isfinite(applied_torque)
-                else applied_torque)
-        a_delta = (model_delta if applied_steer is None or not math.isfinite(applied_steer)
-                   else applied_steer)
+        a_tw, a_delta = self._applied(vx, applied_torque, applied_steer)
         m = self._meas
         m[_M_VX] = vx
         m[_M_R] = r
@@ -1425,27 +1508,10 @@ class NaturalOutputController:
         c[_C_EY] = e_y_ref
         c[_C_EYD] = e_y_ref_dot
         c[_C_EYDD] = e_y_ref_ddot
-        z = self._arrays
-        tw, delta = vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon,
-                                 z.f_lat, z.f_yaw, m, c, a_tw, a_delta)
-        # a held step (a standstill, a NaN e_y) returns the steer applied last (with the
-        # curvature term's change since), which the caller may report beyond the range
-        # (applied_steer); in the engine, and for the law's own outputs, it is within the
-        # range already
-        lim = self._act.max_steer
-        if delta > lim:
-            delta = lim
-        elif delta < -lim:
-            delta = -lim
-        if not (math.isfinite(tw) and math.isfinite(delta)):  # overflowed (Raises)
-            self._overflowed(tw, delta, dict(
-                vx=vx, r=r, e_y=e_y, kappa=kappa, vx_ref=vx_ref, ax_ref=ax_ref, e_y_ref=e_y_ref,
-                e_y_ref_dot=e_y_ref_dot, e_y_ref_ddot=e_y_ref_ddot,
-                applied_torque=applied_torque, applied_steer=applied_steer, e_y_ddot=e_y_ddot))
-        prev[0] = tw
-        prev[1] = delta
-        self._vx_prev = vx
-        return tw, delta
+        return self._step_kernel(vx, a_tw, a_delta, lambda: dict(
+            vx=vx, r=r, e_y=e_y, kappa=kappa, vx_ref=vx_ref, ax_ref=ax_ref, e_y_ref=e_y_ref,
+            e_y_ref_dot=e_y_ref_dot, e_y_ref_ddot=e_y_ref_ddot,
+            applied_torque=applied_torque, applied_steer=applied_steer, e_y_ddot=e_y_ddot))
 
     @property
     def status(self) -> NaturalOutputStatus:
@@ -1458,14 +1524,3 @@ class NaturalOutputController:
             lateral=intelligent_status(z.p_lat, z.s_lat),
             f_lat=float(lateral_f_hat(z.kind, z.p_lat, z.s_lat, z.coef)),
             steer_held=below or not intelligent_law_ran(z.p_lat, z.s_lat))
-
-    def _overflowed(self, tw: float, delta: float, inputs: dict) -> None:
-        """Reset at the last finite commands and raise (:meth:`step`, Raises)."""
-        a = self._act  # (within the ranges reset checks: the commands are, to round-off)
-        torque0 = min(max(float(self._prev[0]), -a.max_brake_torque), a.max_drive_torque)
-        steer0 = min(max(float(self._prev[1]), -a.max_steer), a.max_steer)
-        self.reset(steer0=steer0, torque0=torque0)
-        raise nonfinite_command(
-            type(self).__name__, {"torque": tw, "steer": delta}, inputs,
-            f"the controller was reset (reset(steer0={steer0!r}, torque0={torque0!r}), the "
-            "last finite commands: its windows held the overflowed values)")

@@ -1,0 +1,270 @@
+"""The paper's model-free controller on flat outputs (Section 3.3) for a user's own loop.
+
+:class:`FlatOutputController` is to ``mfc-flat`` what
+:class:`~flatfree.controllers.vehicle.NaturalOutputController` is to ``mfc-natural``: the
+closed-loop engine's compiled kernel (:func:`~flatfree.controllers.vehicle.vehicle_step` with
+:class:`~flatfree.controllers.vehicle.MfcFlatSettings`) behind ``reset()`` / ``step()``. Two
+decoupled iPIs (nu = 1): one on y1 = Vx (wheel torque), one on y2 = lf m Vy - Iz r (steer),
+plus, by default, the outer path-following correction of the y2 reference (module docstring of
+:mod:`flatfree.controllers.vehicle`): without it the design tracks velocities only and drifts
+off the path within a lap.
+
+The y2 reference and its derivative come from the 3DoF model along your path:
+:func:`flatfree.tracks.reference_states_3dof` gives ``y2``, ``y2_dot`` (and the sideslip rate
+for ``r_kin``) along a :func:`flatfree.make_reference` reference, read at the car's arc length.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from flatfree._validate import real
+from flatfree.actuators import ActuatorParams
+from flatfree.controllers.intelligent import (
+    IntelligentStatus,
+    intelligent_law_ran,
+    intelligent_status,
+)
+from flatfree.controllers.vehicle import (
+    CREF,
+    MEAS,
+    MfcFlatSettings,
+    VehicleControllerArrays,
+    _OwnLoopShell,
+    build_mfc,
+)
+from flatfree.models.bicycle3dof import Bicycle3DoFParams
+
+__all__ = ["FlatOutputController", "FlatOutputStatus"]
+
+# plain-int slots (an IntEnum member costs an attribute lookup and a conversion per use)
+_M_VX, _M_VY, _M_R = int(MEAS.VX), int(MEAS.VY), int(MEAS.R)
+_M_EY, _M_EPSI = int(MEAS.E_Y), int(MEAS.E_PSI)
+_C_VX, _C_AX, _C_Y2, _C_Y2D = int(CREF.VX), int(CREF.AX), int(CREF.Y2), int(CREF.Y2_DOT)
+_C_EY, _C_EYD = int(CREF.EY), int(CREF.EY_DOT)
+_C_G, _C_RKIN = int(CREF.Y2_PER_R), int(CREF.R_KIN)
+
+
+@dataclass(frozen=True, slots=True)
+class FlatOutputStatus:
+    """Snapshot of a :class:`FlatOutputController` after its last step.
+
+    Attributes
+    ----------
+    speed : IntelligentStatus
+        The iPI on the speed (y = vx [m/s], u = wheel torque [N m]).
+    lateral : IntelligentStatus
+        The iPI on y2 = lf m vy - Iz r (y [kg m^2/s], u = steer [rad]); its ``error`` is
+        ``y2 - y2_ref`` with the path correction's shift in ``y2_ref``, its ``f_hat`` the F of
+        ``y2' = F + alpha delta`` [kg m^2/s^2].
+    steer_held : bool
+        The last steer is not the law's: the window still filling (the start's steer held) or
+        a non-finite ``vx``, ``vy``, ``r`` or y2 reference (the steer applied last held).
+    """
+
+    speed: IntelligentStatus
+    lateral: IntelligentStatus
+    steer_held: bool
+
+
+class FlatOutputController(_OwnLoopShell):
+    """The paper's model-free controller on flat outputs (Section 3.3) for a user's own loop.
+
+    ``reset()`` / ``step()`` over the same compiled kernel as the closed-loop engine's
+    ``mfc-flat`` (module docstring). Call :meth:`step` once per control period ``dt``; hold its
+    outputs until the next call (zero-order hold: the estimators assume it). One controller
+    per loop (its state is updated in place); ``copy.copy`` gives an independent controller in
+    the same state.
+
+    Parameters
+    ----------
+    dt : float
+        Control period [s]. The settings' windows count samples, tuned at 1 ms: at another
+        period pass ``settings.for_period(dt)``, which keeps their durations.
+    actuators : ActuatorParams
+        Steer and torque limits; the iPIs' limits mirror them, and, unless told what was
+        applied, the controller assumes that these actuators
+        (:func:`flatfree.actuators.actuate_step`) applied its previous command.
+    model : Bicycle3DoFParams
+        The car's design model (``Bicycle3DoFParams.from_vehicle(vehicle)``). The loops use
+        its ``m``, ``iz`` and ``lf`` (y2 = lf m vy - Iz r, the paper's design); the path
+        correction converts its yaw-rate correction to y2 with the model's steady ratio
+        d y2 / d r (:func:`~flatfree.controllers.vehicle.y2_per_r`, also ``lr`` and ``cr``),
+        unless :meth:`step` is given ``y2_per_r``.
+    settings : MfcFlatSettings, optional
+        Default ``MfcFlatSettings()``: the tuning of the engine's ``paper`` scenarios at 1 kHz
+        (the peugeot406; ``alpha_lat`` scales with the car's ``-lf Cf`` times the window,
+        :class:`~flatfree.controllers.vehicle.MfcFlatSettings`).
+        ``path_correction = False`` is the paper's design exactly (velocities only).
+
+    Examples
+    --------
+    >>> from flatfree import ActuatorParams, Bicycle3DoFParams, load_vehicle
+    >>> car = load_vehicle("peugeot406")
+    >>> ctrl = FlatOutputController(dt=0.001, actuators=ActuatorParams.from_vehicle(car),
+    ...                             model=Bicycle3DoFParams.from_vehicle(car))
+    >>> ctrl.reset()
+    >>> torque, steer = ctrl.step(vx=20.0, vy=0.0, r=0.0, vx_ref=20.0, y2_ref=0.0,
+    ...                           y2_ref_dot=0.0, e_y=0.01, e_psi=0.0)
+
+    References
+    ----------
+    [paper] Section 3.3; NOTES.md; :mod:`flatfree.controllers.vehicle` (the outer
+    correction, the sign of ``alpha_lat``).
+    """
+
+    __slots__ = ("_model", "_lfm", "_g0", "_crl")
+
+    _CONTROLLER = "mfc-flat"
+    _SETTINGS = MfcFlatSettings
+
+    def __init__(self, *, dt: float, actuators: ActuatorParams, model: Bicycle3DoFParams,
+                 settings: MfcFlatSettings | None = None) -> None:
+        if not isinstance(model, Bicycle3DoFParams):
+            raise ValueError(f"model = {model!r:.60}: expected flatfree.Bicycle3DoFParams "
+                             "(e.g. Bicycle3DoFParams.from_vehicle(vehicle))")
+        self._model = model
+        # y2_per_r(model, vx) = (lf m lr - Iz) - (lf m vx)^2 / (Cr L), in the same operations
+        self._lfm = model.lf * model.m
+        self._g0 = self._lfm * model.lr - model.iz
+        self._crl = model.cr * (model.lf + model.lr)
+        super().__init__(dt=dt, actuators=actuators, settings=settings)
+
+    @property
+    def settings(self) -> MfcFlatSettings:
+        """The controller's settings."""
+        return self._settings
+
+    @property
+    def model(self) -> Bicycle3DoFParams:
+        """The design model."""
+        return self._model
+
+    def reset(self, *, steer0: float = 0.0, torque0: float = 0.0) -> None:
+        """Fresh estimators and path-correction integral; ``steer0`` [rad] and ``torque0``
+        [N m] are the actuators' positions, held until the estimator windows are full
+        (``window_lon`` / ``window_lat`` samples, 50 each by default). Each within the
+        actuators' range (``ValueError`` otherwise)."""
+        super().reset(steer0=steer0, torque0=torque0)
+
+    def _build(self, steer0: float, torque0: float) -> VehicleControllerArrays:
+        m = self._model
+        return build_mfc("mfc-flat", self._settings, dt=self._dt, actuators=self._act,
+                         mass=m.m, iz=m.iz, lf=m.lf, steer0=steer0, torque0=torque0)
+
+    def step(self, *, vx: float, vy: float, r: float, vx_ref: float, y2_ref: float,
+             y2_ref_dot: float, ax_ref: float = 0.0, e_y: float | None = None,
+             e_psi: float | None = None, e_y_ref: float = 0.0, e_y_ref_dot: float = 0.0,
+             r_kin: float = 0.0, y2_per_r: float | None = None,
+             applied_torque: float | None = None,
+             applied_steer: float | None = None) -> tuple[float, float]:
+        """One control step: returns (wheel torque [N m], road-wheel steer [rad]).
+
+        A bumpless start: until its estimator's window is full (the first ``window - 1``
+        steps, 49 ms at the default settings) each loop gives the :meth:`reset`'s ``torque0``
+        and ``steer0``. A step whose ``vx``, ``vy`` or ``r`` is not finite holds the outputs
+        applied last (the window keeps its time base); a non-finite ``e_y`` or ``e_psi``
+        leaves out the path correction for that step (its integral holds). The steer returned
+        is within ``actuators.max_steer``.
+
+        Conventions (ISO 8855): body axes at the CoG, x forward, y left, z up; the yaw rate,
+        the steer and ``e_y`` positive to the left; the torque is the sum at the wheels, > 0
+        driving.
+
+        Parameters
+        ----------
+        vx, vy : float
+            Measured velocity of the CoG in body axes [m/s].
+        r : float
+            Measured yaw rate [rad/s].
+        vx_ref, ax_ref : float
+            Speed reference [m/s] and its time derivative [m/s^2] (the speed iPI's
+            feedforward: without it the speed lags the profile).
+        y2_ref, y2_ref_dot : float
+            Reference of y2 = lf m vy - Iz r [kg m^2/s] and its time derivative
+            [kg m^2/s^2], from the 3DoF model along the path (module docstring).
+        e_y, e_psi : float
+            Measured lateral deviation from the path [m] and heading error (yaw minus the
+            path's heading) [rad]. Required while ``settings.path_correction`` is on
+            (``ValueError`` naming them when left out; NaN for a lost sample), not read
+            when it is off.
+        e_y_ref, e_y_ref_dot : float
+            Lateral-deviation reference and its derivative (0: follow the path).
+        r_kin : float
+            Minus the reference's sideslip rate, ``-beta_ref'`` [rad/s]
+            (``sideslip_feedforward``; 0 when unknown: a little more lateral error).
+        y2_per_r : float, optional
+            The correction's d y2 / d r [kg m^2/s per rad/s]; ``None``: the design model's
+            steady ratio at ``vx_ref``.
+        applied_torque, applied_steer : float, optional
+            What the actuators applied over the last period, if known; ``None`` or a
+            non-finite value: the previous command through the model of ``actuators``.
+
+        Raises
+        ------
+        ValueError
+            An argument that is not one real number (naming it), ``e_y`` / ``e_psi`` left out
+            with the path correction on, or a torque or steer that came out non-finite (the
+            arithmetic overflowed); the controller is then reset at its last finite commands.
+        """
+        # the common path (floats) costs one type test per argument (_shell docstring)
+        vx = vx if isinstance(vx, float) else real("vx", vx, "m/s")
+        vy = vy if isinstance(vy, float) else real("vy", vy, "m/s")
+        r = r if isinstance(r, float) else real("r", r, "rad/s")
+        vx_ref = vx_ref if isinstance(vx_ref, float) else real("vx_ref", vx_ref, "m/s")
+        ax_ref = ax_ref if isinstance(ax_ref, float) else real("ax_ref", ax_ref, "m/s^2")
+        y2_ref = y2_ref if isinstance(y2_ref, float) else real("y2_ref", y2_ref, "kg m^2/s")
+        if not isinstance(y2_ref_dot, float):
+            y2_ref_dot = real("y2_ref_dot", y2_ref_dot, "kg m^2/s^2")
+        c = self._ref
+        if self._settings.path_correction:
+            if e_y is None or e_psi is None:
+                missing = " and ".join(k for k, v in (("e_y", e_y), ("e_psi", e_psi))
+                                       if v is None)
+                raise ValueError(
+                    f"{missing} = None: required with settings.path_correction = True (the "
+                    "outer loop steers back to the path from them; NaN for a lost sample), "
+                    "or use MfcFlatSettings(path_correction=False), the paper's design")
+            e_y = e_y if isinstance(e_y, float) else real("e_y", e_y, "m")
+            e_psi = e_psi if isinstance(e_psi, float) else real("e_psi", e_psi, "rad")
+            if not isinstance(e_y_ref, float):
+                e_y_ref = real("e_y_ref", e_y_ref, "m")
+            if not isinstance(e_y_ref_dot, float):
+                e_y_ref_dot = real("e_y_ref_dot", e_y_ref_dot, "m/s")
+            r_kin = r_kin if isinstance(r_kin, float) else real("r_kin", r_kin, "rad/s")
+            if y2_per_r is None:
+                g = self._lfm * vx_ref
+                y2_per_r = self._g0 - g * g / self._crl
+            elif not isinstance(y2_per_r, float):
+                y2_per_r = real("y2_per_r", y2_per_r, "kg m^2/s / (rad/s)")
+            c[_C_EY] = e_y_ref
+            c[_C_EYD] = e_y_ref_dot
+            c[_C_G] = y2_per_r
+            c[_C_RKIN] = r_kin
+        a_tw, a_delta = self._applied(vx, applied_torque, applied_steer)
+        m = self._meas
+        m[_M_VX] = vx
+        m[_M_VY] = vy
+        m[_M_R] = r
+        m[_M_EY] = math.nan if e_y is None else e_y
+        m[_M_EPSI] = math.nan if e_psi is None else e_psi
+        c[_C_VX] = vx_ref
+        c[_C_AX] = ax_ref
+        c[_C_Y2] = y2_ref
+        c[_C_Y2D] = y2_ref_dot
+        return self._step_kernel(vx, a_tw, a_delta, lambda: dict(
+            vx=vx, vy=vy, r=r, vx_ref=vx_ref, y2_ref=y2_ref, y2_ref_dot=y2_ref_dot,
+            ax_ref=ax_ref, e_y=e_y, e_psi=e_psi, e_y_ref=e_y_ref, e_y_ref_dot=e_y_ref_dot,
+            r_kin=r_kin, y2_per_r=y2_per_r, applied_torque=applied_torque,
+            applied_steer=applied_steer))
+
+    @property
+    def status(self) -> FlatOutputStatus:
+        """The loops' counters, flags and estimates after the last step
+        (:class:`FlatOutputStatus`)."""
+        z = self._arrays
+        return FlatOutputStatus(
+            speed=intelligent_status(z.p_lon, z.s_lon),
+            lateral=intelligent_status(z.p_lat, z.s_lat),
+            steer_held=not intelligent_law_ran(z.p_lat, z.s_lat))

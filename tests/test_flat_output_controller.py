@@ -1,0 +1,219 @@
+"""The flat-output model-free controller in a user's own loop (FlatOutputController)."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from flatfree import (
+    ActuatorParams,
+    Bicycle3DoFParams,
+    FlatOutputController,
+    MfcFlatSettings,
+    load_vehicle,
+)
+from flatfree.controllers.vehicle import CREF, MEAS, settings_from_mapping, y2_per_r
+from flatfree.scenario import ReferenceSpec, Scenario, Timing
+from flatfree.scenarios import REALISTIC_SENSORS
+from flatfree.simulation import Status, prepare, simulate
+
+CAR = load_vehicle("peugeot406")
+ACT = ActuatorParams.from_vehicle(CAR)
+MODEL = Bicycle3DoFParams.from_vehicle(CAR)
+
+
+def _scenario(**kw) -> Scenario:
+    base = dict(plant="10dof", controller="mfc-flat",
+                reference=ReferenceSpec(track="Norisring", a_lat_max=3.0),
+                timing=Timing(duration_s=1.5, log_dt_s=0.01), sensors=REALISTIC_SENSORS, seed=1)
+    base.update(kw)
+    return Scenario(**base)
+
+
+class _FlatDoor:
+    """The engine's built-in mfc-flat through FlatOutputController (the same kernel)."""
+
+    schedule = "path"
+
+    def __init__(self, sc, *, own_ratio: bool = False):
+        self.steer0 = prepare(sc).steer0
+        self.own_ratio = own_ratio
+        self.calls = 0
+        self.c = FlatOutputController(
+            dt=sc.timing.control_dt_s, actuators=ACT, model=MODEL,
+            settings=settings_from_mapping("mfc-flat", sc.controller_settings))
+
+    def reset(self):
+        self.c.reset(steer0=self.steer0)
+
+    def step(self, t, measurement, reference, applied):
+        self.calls += 1
+        m, r = measurement, reference
+        return self.c.step(
+            vx=m[MEAS.VX], vy=m[MEAS.VY], r=m[MEAS.R], vx_ref=r[CREF.VX], ax_ref=r[CREF.AX],
+            y2_ref=r[CREF.Y2], y2_ref_dot=r[CREF.Y2_DOT], e_y=m[MEAS.E_Y],
+            e_psi=m[MEAS.E_PSI], e_y_ref=r[CREF.EY], e_y_ref_dot=r[CREF.EY_DOT],
+            r_kin=r[CREF.R_KIN], y2_per_r=None if self.own_ratio else r[CREF.Y2_PER_R],
+            applied_torque=applied[0], applied_steer=applied[1])
+
+
+@pytest.mark.parametrize("settings", [{}, {"path_correction": False, "ki_lat": 3.0}],
+                         ids=["corrected", "paper-exact"])
+def test_door_gives_the_compiled_mfc_flat_bit_for_bit(settings):
+    """Through the engine's Python door, the class gives the built-in mfc-flat's trajectory
+    bit for bit (same kernel; the engine's sensors, actuators, logging are shared): every
+    measurement and reference column reaches the kernel as the compiled loop hands it."""
+    sc = _scenario(controller_settings=settings)
+    ref_run = simulate(sc)
+    door = _FlatDoor(sc)
+    py_run = simulate(sc, controller=door)
+    assert door.calls == 1500
+    assert ref_run.status is Status.COMPLETED
+    for k in ref_run:
+        if k in ("f_lon", "f_lat"):  # controller internals: only the built-in door logs them
+            continue
+        np.testing.assert_array_equal(py_run[k], ref_run[k], err_msg=k)
+    st = door.c.status
+    assert st.speed.window_full and st.lateral.window_full and not st.steer_held
+
+
+def test_the_ratio_of_the_design_model_is_y2_per_r():
+    """Left out, d y2 / d r is the design model's steady ratio at vx_ref (the engine's
+    column is that ratio at the reference's rows, interpolated: close, not identical)."""
+    c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+    for v in (5.0, 20.0, 47.5):
+        g = c._lfm * v
+        assert c._g0 - g * g / c._crl == float(y2_per_r(MODEL, v))
+    sc = _scenario()
+    a = simulate(sc, controller=_FlatDoor(sc))
+    b = simulate(sc, controller=_FlatDoor(sc, own_ratio=True))
+    assert b.status is Status.COMPLETED
+    # the two differ only by the interpolation of a quadratic over the reference's rows:
+    # measured 3.6e-8 m over these 1.5 s (8.6e-7 m over 10 s)
+    assert 0.0 < np.max(np.abs(a["e_y"] - b["e_y"])) < 1e-6
+
+
+def test_warm_up_holds_the_start_then_the_law_runs():
+    s = MfcFlatSettings()
+    c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+    c.reset(steer0=0.02, torque0=100.0)
+    args = dict(vx=20.0, vy=0.0, r=0.0, vx_ref=21.0, y2_ref=0.0, y2_ref_dot=0.0, e_y=0.0,
+                e_psi=0.0)
+    for _ in range(s.window_lat - 1):
+        tw, de = c.step(**args)
+        assert (tw, de) == (100.0, 0.02)
+        assert c.status.steer_held
+    for _ in range(20):
+        tw, de = c.step(**args)
+    assert not c.status.steer_held and c.status.lateral.window_full
+    assert tw > 100.0  # below its reference the speed loop drives
+
+
+def test_path_correction_steers_back_to_the_path():
+    """A car 0.5 m left of its path (e_y > 0), on a straight at the reference's states:
+    the correction asks for a right turn, which the y2 loop makes with a right steer; the
+    paper's design (no correction) does not see the deviation."""
+    def steer_after(settings, e_y):
+        c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL, settings=settings)
+        for _ in range(200):
+            _, de = c.step(vx=20.0, vy=0.0, r=0.0, vx_ref=20.0, y2_ref=0.0, y2_ref_dot=0.0,
+                           e_y=e_y, e_psi=0.0)
+        return de
+
+    assert steer_after(MfcFlatSettings(), 0.5) < -1e-4
+    assert steer_after(MfcFlatSettings(), -0.5) > 1e-4
+    paper = MfcFlatSettings(path_correction=False)
+    assert steer_after(paper, 0.5) == steer_after(paper, 0.0) == 0.0
+
+
+def test_nonfinite_measurement_holds_and_lost_pose_skips_the_correction():
+    c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+    args = dict(vx=20.0, vy=0.1, r=0.05, vx_ref=20.0, y2_ref=0.0, y2_ref_dot=0.0, e_y=0.1,
+                e_psi=0.0)
+    for _ in range(100):
+        out = c.step(**args)
+    held = c.step(**{**args, "r": math.nan})  # y2 lost: the steer held; the speed loop runs
+    assert held[1] == out[1] and held[0] != out[0]
+    assert c.status.steer_held and c.status.lateral.nonfinite and not c.status.speed.nonfinite
+    tw, de = c.step(**{**args, "e_y": math.nan, "e_psi": math.nan})
+    assert math.isfinite(tw) and math.isfinite(de) and not c.status.steer_held
+
+
+def test_bad_inputs_are_named():
+    c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+    args = dict(vx=20.0, vy=0.0, r=0.0, vx_ref=20.0, y2_ref=0.0, y2_ref_dot=0.0)
+    with pytest.raises(ValueError, match="e_y and e_psi = None: required"):
+        c.step(**args)
+    with pytest.raises(ValueError, match="e_psi = None"):
+        c.step(**args, e_y=0.0)
+    with pytest.raises(ValueError, match="vy"):
+        c.step(**{**args, "vy": "0"}, e_y=0.0, e_psi=0.0)
+    with pytest.raises(ValueError, match="y2_per_r"):
+        c.step(**args, e_y=0.0, e_psi=0.0, y2_per_r=[1.0])
+    with pytest.raises(ValueError, match="applied_steer"):
+        c.step(**args, e_y=0.0, e_psi=0.0, applied_steer="x")
+    # without the correction the pose is not needed
+    paper = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
+                                 settings=MfcFlatSettings(path_correction=False))
+    assert paper.step(**args) == (0.0, 0.0)
+    with pytest.raises(ValueError, match="model"):
+        FlatOutputController(dt=0.001, actuators=ACT, model=CAR)
+    with pytest.raises(ValueError, match="actuators"):
+        FlatOutputController(dt=0.001, actuators=CAR, model=MODEL)
+    with pytest.raises(ValueError, match="settings"):
+        FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
+                             settings=settings_from_mapping("mfc-natural", {}))
+    with pytest.raises(ValueError, match="steer0"):
+        c.reset(steer0=5.0)
+
+
+def test_overflow_resets_and_raises():
+    """Two speeds of 1e308 m/s in the speed loop's window make its F estimate inf - inf: the
+    step raises naming the inputs and resets at the last finite commands (as the natural-output
+    controller's shell)."""
+    c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+    args = dict(vx=20.0, vy=0.0, r=0.0, vx_ref=20.0, y2_ref=0.0, y2_ref_dot=0.0, e_y=0.0,
+                e_psi=0.0)
+    for _ in range(60):
+        c.step(**args)
+    last = c.step(**{**args, "vx": 1e308})
+    assert last[0] == -ACT.max_brake_torque
+    with pytest.raises(ValueError, match=r"FlatOutputController\.step\(vx = 1e\+308, vy = 0\.0"
+                                         r".*torque = nan is not finite.*reset\(steer0="):
+        c.step(**{**args, "vx": 1e308})
+    fresh = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+    fresh.reset(torque0=last[0], steer0=last[1])
+    for _ in range(80):
+        assert c.step(**args) == fresh.step(**args)
+
+
+def test_copy_steps_on_its_own():
+    c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+    args = dict(vx=20.0, vy=0.0, r=0.0, vx_ref=21.0, y2_ref=0.0, y2_ref_dot=0.0, e_y=0.2,
+                e_psi=0.0)
+    for _ in range(80):
+        c.step(**args)
+    d = copy.copy(c)
+    before = c._arrays.s_lat.copy(), c._arrays.coef.copy()
+    out = [d.step(**args) for _ in range(5)]
+    np.testing.assert_array_equal(c._arrays.s_lat, before[0])  # the original did not move
+    np.testing.assert_array_equal(c._arrays.coef, before[1])  # (the correction's integral)
+    assert [c.step(**args) for _ in range(5)] == out  # and steps as the copy did
+
+
+def test_own_loop_flat_example_runs_and_the_correction_holds_the_path():
+    """examples/own_loop_flat.py, the documented reset()/step() use of the flat-output design
+    with its y2 reference from the 3DoF model along the path (reference_states_3dof), over 20 s
+    of Norisring. Measured: 0.72 m max with the path correction (the engine's paper-mfc-flat,
+    whole laps, seeds 0-19: 0.97-1.02 m; the bound is that band's top), 3.55 m without (the
+    paper's design exactly drifts: the engine's leaves the track at 22-29 s)."""
+    from conftest import load_script
+
+    mod = load_script("examples/own_loop_flat.py")
+    corrected = mod.run(MfcFlatSettings(), 20.0)
+    exact = mod.run(MfcFlatSettings(path_correction=False), 20.0)
+    assert corrected["max_lateral_m"] < 1.02
+    assert exact["max_lateral_m"] > 2.0 * corrected["max_lateral_m"]
