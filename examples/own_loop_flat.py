@@ -1,4 +1,4 @@
-"""The flat-output model-free controller in your own loop: reset() / step() (paper Section 3.3).
+"""The designs on flat outputs in your own loop: reset() / step() (paper Sections 3.3, 2.3).
 
 Here "your car" is flatfree's 10DoF model stepped from Python one millisecond at a time; replace
 the marked lines with your simulator's or your car's state estimate and actuator commands. Per
@@ -6,8 +6,9 @@ control period you hand the controller the measured body velocities and yaw rate
 and flat-output references read at the car's arc length, and (for the outer path correction)
 the lateral deviation and heading error from your path. The y2 = lf m vy - Iz r reference comes
 from the 3DoF model along the path (:func:`flatfree.tracks.reference_states_3dof`). Compares
-the paper's design exactly (velocities only) with the path correction over the first seconds
-of Norisring. Usage::
+the model-free design exactly as the paper has it (velocities only), with the path correction,
+and the flatness-based law (Section 2.3, also corrected) over the first seconds of Norisring.
+Usage::
 
     python examples/own_loop_flat.py [seconds]
 """
@@ -24,7 +25,8 @@ from flatfree.models.tendof import TenDoF
 from flatfree.tracks import frenet_init, frenet_project, reference_states_3dof
 
 
-def run(settings: ff.MfcFlatSettings, seconds: float, seed: int = 0) -> dict[str, float]:
+def run(settings: ff.MfcFlatSettings | ff.FlatnessSettings, seconds: float,
+        seed: int = 0) -> dict[str, float]:
     """Drive ``seconds`` of Norisring with 1 mm of position noise and 0.01 m/s of velocity
     noise: the max |e_y| after the first second [m] and the final speed [m/s]."""
     car = ff.load_vehicle("peugeot406")
@@ -60,11 +62,12 @@ def run(settings: ff.MfcFlatSettings, seconds: float, seed: int = 0) -> dict[str
         s, e_y, e_psi, _, seg = frenet_project(g, closed, px, py, x[2], seg)
 
         # the references at the car's arc length
-        vx_ref, ax_ref, y2_ref, y2_ref_dot, r_kin_ref = (
+        vx_ref, ax_ref, y2_ref, y2_ref_dot, y2_ref_ddot, r_kin_ref = (
             float(np.interp(s, s_grid, col))
-            for col in (ref["vx"], ref["ax"], lat.y2, lat.y2_dot, r_kin))
+            for col in (ref["vx"], ref["ax"], lat.y2, lat.y2_dot, lat.y2_ddot, r_kin))
         torque, steer = ctrl.step(vx=vx, vy=vy, r=r, vx_ref=vx_ref, ax_ref=ax_ref,
-                                  y2_ref=y2_ref, y2_ref_dot=y2_ref_dot, e_y=e_y, e_psi=e_psi,
+                                  y2_ref=y2_ref, y2_ref_dot=y2_ref_dot,
+                                  y2_ref_ddot=y2_ref_ddot, e_y=e_y, e_psi=e_psi,
                                   r_kin=r_kin_ref)
         # --- your actuators (here: the model's inputs, held for one period) ---
         u[0], u[1] = actuate_step(torque, steer, x[3], act_p, act_s)
@@ -76,10 +79,11 @@ def run(settings: ff.MfcFlatSettings, seconds: float, seed: int = 0) -> dict[str
 
 def main(seconds: float = 10.0) -> None:
     for name, settings in (
-            ("paper's design exactly", ff.MfcFlatSettings(path_correction=False)),
-            ("with the path correction", ff.MfcFlatSettings())):
+            ("model-free, paper's design", ff.MfcFlatSettings(path_correction=False)),
+            ("model-free, corrected", ff.MfcFlatSettings()),
+            ("flatness-based, corrected", ff.FlatnessSettings())):
         out = run(settings, seconds)
-        print(f"{name:26s} max |e_y| after 1 s: {100 * out['max_lateral_m']:.2f} cm "
+        print(f"{name:27s} max |e_y| after 1 s: {100 * out['max_lateral_m']:.2f} cm "
               f"(speed at the end {out['vx_end']:.1f} m/s)")
 
 

@@ -48,6 +48,7 @@ _API = {
     "MfcNaturalSettings": "flatfree.controllers.vehicle",
     "FlatOutputController": "flatfree.controllers.flat_output",
     "MfcFlatSettings": "flatfree.controllers.vehicle",
+    "FlatnessSettings": "flatfree.controllers.vehicle",
     "ActuatorParams": "flatfree.actuators",
     # references
     "load_track": "flatfree.tracks",

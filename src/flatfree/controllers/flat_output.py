@@ -1,13 +1,18 @@
-"""The paper's model-free controller on flat outputs (Section 3.3) for a user's own loop.
+"""The paper's two designs on flat outputs (Sections 2.3 and 3.3) for a user's own loop.
 
-:class:`FlatOutputController` is to ``mfc-flat`` what
+:class:`FlatOutputController` is to ``mfc-flat`` and ``flatness`` what
 :class:`~flatfree.controllers.vehicle.NaturalOutputController` is to ``mfc-natural``: the
-closed-loop engine's compiled kernel (:func:`~flatfree.controllers.vehicle.vehicle_step` with
-:class:`~flatfree.controllers.vehicle.MfcFlatSettings`) behind ``reset()`` / ``step()``. Two
-decoupled iPIs (nu = 1): one on y1 = Vx (wheel torque), one on y2 = lf m Vy - Iz r (steer),
-plus, by default, the outer path-following correction of the y2 reference (module docstring of
-:mod:`flatfree.controllers.vehicle`): without it the design tracks velocities only and drifts
-off the path within a lap.
+closed-loop engine's compiled kernel (:func:`~flatfree.controllers.vehicle.vehicle_step`)
+behind ``reset()`` / ``step()``. Both track y1 = Vx (wheel torque) and y2 = lf m Vy - Iz r
+(steer): with :class:`~flatfree.controllers.vehicle.MfcFlatSettings` two decoupled iPIs
+(nu = 1, model-free: m, Iz, lf form y2), with
+:class:`~flatfree.controllers.vehicle.FlatnessSettings` the flatness-based law on the linear
+3DoF design model (:func:`~flatfree.controllers.flatness_control.flatness_step`). Both add, by
+default, the outer path-following correction of the y2 reference (module docstring of
+:mod:`flatfree.controllers.vehicle`): without it they track velocities only and drift off the
+path within a lap. (:class:`~flatfree.controllers.flatness_control.FlatnessController` is
+the paper's flatness law exactly, on a time-scheduled :class:`FlatReference`, without the
+correction.)
 
 The y2 reference and its derivative come from the 3DoF model along your path:
 :func:`flatfree.tracks.reference_states_3dof` gives ``y2``, ``y2_dot`` (and the sideslip rate
@@ -21,6 +26,7 @@ from dataclasses import dataclass
 
 from flatfree._validate import real
 from flatfree.actuators import ActuatorParams
+from flatfree.controllers.flatness_control import FST, FlatnessControlStatus, flatness_status
 from flatfree.controllers.intelligent import (
     IntelligentStatus,
     intelligent_law_ran,
@@ -29,9 +35,11 @@ from flatfree.controllers.intelligent import (
 from flatfree.controllers.vehicle import (
     CREF,
     MEAS,
+    FlatnessSettings,
     MfcFlatSettings,
     VehicleControllerArrays,
     _OwnLoopShell,
+    build_flatness,
     build_mfc,
 )
 from flatfree.models.bicycle3dof import Bicycle3DoFParams
@@ -42,6 +50,7 @@ __all__ = ["FlatOutputController", "FlatOutputStatus"]
 _M_VX, _M_VY, _M_R = int(MEAS.VX), int(MEAS.VY), int(MEAS.R)
 _M_EY, _M_EPSI = int(MEAS.E_Y), int(MEAS.E_PSI)
 _C_VX, _C_AX, _C_Y2, _C_Y2D = int(CREF.VX), int(CREF.AX), int(CREF.Y2), int(CREF.Y2_DOT)
+_C_Y2DD = int(CREF.Y2_DDOT)
 _C_EY, _C_EYD = int(CREF.EY), int(CREF.EY_DOT)
 _C_G, _C_RKIN = int(CREF.Y2_PER_R), int(CREF.R_KIN)
 
@@ -52,51 +61,61 @@ class FlatOutputStatus:
 
     Attributes
     ----------
-    speed : IntelligentStatus
-        The iPI on the speed (y = vx [m/s], u = wheel torque [N m]).
-    lateral : IntelligentStatus
-        The iPI on y2 = lf m vy - Iz r (y [kg m^2/s], u = steer [rad]); its ``error`` is
-        ``y2 - y2_ref`` with the path correction's shift in ``y2_ref``, its ``f_hat`` the F of
-        ``y2' = F + alpha delta`` [kg m^2/s^2].
+    speed, lateral : IntelligentStatus or None
+        The model-free design's iPIs (``None`` for the flatness law): on the speed (y = vx
+        [m/s], u = wheel torque [N m]) and on y2 = lf m vy - Iz r (y [kg m^2/s], u = steer
+        [rad]); the lateral ``error`` is ``y2 - y2_ref`` with the path correction's shift in
+        ``y2_ref``, its ``f_hat`` the F of ``y2' = F + alpha delta`` [kg m^2/s^2].
+    flatness : FlatnessControlStatus or None
+        The flatness law's flags, errors (reference minus output, the paper's sign) and
+        counters (``None`` for the model-free design).
     steer_held : bool
-        The last steer is not the law's: the window still filling (the start's steer held) or
-        a non-finite ``vx``, ``vy``, ``r`` or y2 reference (the steer applied last held).
+        The last steer is not the law's: the model-free design's window still filling (the
+        start's steer held) or a non-finite ``vx``, ``vy``, ``r`` or y2 reference (the steer
+        applied last held); for the flatness law any step but ``FCS.ok`` (a bad measurement
+        or reference, or the fallback below the hand-over speed).
     """
 
-    speed: IntelligentStatus
-    lateral: IntelligentStatus
+    speed: IntelligentStatus | None
+    lateral: IntelligentStatus | None
+    flatness: FlatnessControlStatus | None
     steer_held: bool
 
 
 class FlatOutputController(_OwnLoopShell):
-    """The paper's model-free controller on flat outputs (Section 3.3) for a user's own loop.
+    """The paper's designs on flat outputs (Sections 2.3, 3.3) for a user's own loop.
 
     ``reset()`` / ``step()`` over the same compiled kernel as the closed-loop engine's
-    ``mfc-flat`` (module docstring). Call :meth:`step` once per control period ``dt``; hold its
-    outputs until the next call (zero-order hold: the estimators assume it). One controller
-    per loop (its state is updated in place); ``copy.copy`` gives an independent controller in
-    the same state.
+    ``mfc-flat`` and ``flatness`` (module docstring), the design chosen by the settings' class.
+    Call :meth:`step` once per control period ``dt``; hold its outputs until the next call
+    (zero-order hold). One controller per loop (its state is updated in place); ``copy.copy``
+    gives an independent controller in the same state.
 
     Parameters
     ----------
     dt : float
-        Control period [s]. The settings' windows count samples, tuned at 1 ms: at another
-        period pass ``settings.for_period(dt)``, which keeps their durations.
+        Control period [s]. The model-free settings' windows count samples, tuned at 1 ms: at
+        another period pass ``settings.for_period(dt)``, which keeps their durations.
     actuators : ActuatorParams
         Steer and torque limits; the iPIs' limits mirror them, and, unless told what was
         applied, the controller assumes that these actuators
-        (:func:`flatfree.actuators.actuate_step`) applied its previous command.
+        (:func:`flatfree.actuators.actuate_step`) applied its previous command (the iPIs'
+        estimators and the flatness law's anti-windup must see the input applied).
     model : Bicycle3DoFParams
-        The car's design model (``Bicycle3DoFParams.from_vehicle(vehicle)``). The loops use
-        its ``m``, ``iz`` and ``lf`` (y2 = lf m vy - Iz r, the paper's design); the path
-        correction converts its yaw-rate correction to y2 with the model's steady ratio
-        d y2 / d r (:func:`~flatfree.controllers.vehicle.y2_per_r`, also ``lr`` and ``cr``),
-        unless :meth:`step` is given ``y2_per_r``.
-    settings : MfcFlatSettings, optional
-        Default ``MfcFlatSettings()``: the tuning of the engine's ``paper`` scenarios at 1 kHz
-        (the peugeot406; ``alpha_lat`` scales with the car's ``-lf Cf`` times the window,
-        :class:`~flatfree.controllers.vehicle.MfcFlatSettings`).
-        ``path_correction = False`` is the paper's design exactly (velocities only).
+        The car's nominal design model (``Bicycle3DoFParams.from_vehicle(vehicle)``). The
+        model-free design uses its ``m``, ``iz`` and ``lf`` (y2 = lf m vy - Iz r, the paper's
+        design); the flatness law the whole model, its ``cf``, ``cr`` scaled by the settings'
+        ``cf_scale``, ``cr_scale``. The path correction converts its yaw-rate correction to
+        y2 with that model's steady ratio d y2 / d r
+        (:func:`~flatfree.controllers.vehicle.y2_per_r`), unless :meth:`step` is given
+        ``y2_per_r``.
+    settings : MfcFlatSettings or FlatnessSettings, optional
+        Default ``MfcFlatSettings()`` (the model-free design as the engine's ``paper-mfc-flat``
+        runs it at 1 kHz; ``alpha_lat`` scales with the car's ``-lf Cf`` times the window,
+        :class:`~flatfree.controllers.vehicle.MfcFlatSettings`); ``FlatnessSettings()`` the
+        flatness law as ``paper-flatness`` runs it, ``FlatnessSettings(cf_scale=0.3,
+        cr_scale=0.3)`` as ``paper-mismatch``. ``path_correction = False`` is the paper's
+        design exactly (velocities only).
 
     Examples
     --------
@@ -108,65 +127,87 @@ class FlatOutputController(_OwnLoopShell):
     >>> torque, steer = ctrl.step(vx=20.0, vy=0.0, r=0.0, vx_ref=20.0, y2_ref=0.0,
     ...                           y2_ref_dot=0.0, e_y=0.01, e_psi=0.0)
 
+    The flatness law (it needs ``y2_ref_ddot`` too):
+
+    >>> from flatfree.controllers.vehicle import FlatnessSettings
+    >>> law = FlatOutputController(dt=0.001, actuators=ActuatorParams.from_vehicle(car),
+    ...                            model=Bicycle3DoFParams.from_vehicle(car),
+    ...                            settings=FlatnessSettings())
+    >>> torque, steer = law.step(vx=20.0, vy=0.0, r=0.0, vx_ref=20.0, y2_ref=0.0,
+    ...                          y2_ref_dot=0.0, y2_ref_ddot=0.0, e_y=0.01, e_psi=0.0)
+
     References
     ----------
-    [paper] Section 3.3; NOTES.md; :mod:`flatfree.controllers.vehicle` (the outer
+    [paper] Sections 2.3 and 3.3; NOTES.md; :mod:`flatfree.controllers.vehicle` (the outer
     correction, the sign of ``alpha_lat``).
     """
 
-    __slots__ = ("_model", "_lfm", "_g0", "_crl")
+    __slots__ = ("_model", "_lfm", "_g0", "_crl", "_flatness")
 
-    _CONTROLLER = "mfc-flat"
-    _SETTINGS = MfcFlatSettings
+    _SETTINGS = (MfcFlatSettings, FlatnessSettings)
 
     def __init__(self, *, dt: float, actuators: ActuatorParams, model: Bicycle3DoFParams,
-                 settings: MfcFlatSettings | None = None) -> None:
+                 settings: MfcFlatSettings | FlatnessSettings | None = None) -> None:
         if not isinstance(model, Bicycle3DoFParams):
             raise ValueError(f"model = {model!r:.60}: expected flatfree.Bicycle3DoFParams "
                              "(e.g. Bicycle3DoFParams.from_vehicle(vehicle))")
         self._model = model
-        # y2_per_r(model, vx) = (lf m lr - Iz) - (lf m vx)^2 / (Cr L), in the same operations
+        self._flatness = isinstance(settings, FlatnessSettings)
+        # y2_per_r(design, vx) = (lf m lr - Iz) - (lf m vx)^2 / (Cr L), in the same
+        # operations; the flatness law's design model has the settings' Cr
+        cr = settings.cr_scale * model.cr if self._flatness else model.cr
         self._lfm = model.lf * model.m
         self._g0 = self._lfm * model.lr - model.iz
-        self._crl = model.cr * (model.lf + model.lr)
+        self._crl = cr * (model.lf + model.lr)
         super().__init__(dt=dt, actuators=actuators, settings=settings)
 
     @property
-    def settings(self) -> MfcFlatSettings:
+    def settings(self) -> MfcFlatSettings | FlatnessSettings:
         """The controller's settings."""
         return self._settings
 
     @property
     def model(self) -> Bicycle3DoFParams:
-        """The design model."""
+        """The nominal design model."""
         return self._model
 
     def reset(self, *, steer0: float = 0.0, torque0: float = 0.0) -> None:
-        """Fresh estimators and path-correction integral; ``steer0`` [rad] and ``torque0``
-        [N m] are the actuators' positions, held until the estimator windows are full
-        (``window_lon`` / ``window_lat`` samples, 50 each by default). Each within the
-        actuators' range (``ValueError`` otherwise)."""
+        """Fresh estimators (or integrals) and path-correction integral; ``steer0`` [rad] and
+        ``torque0`` [N m] are the actuators' positions: the model-free design holds them until
+        its estimator windows are full (``window_lon`` / ``window_lat`` samples, 50 each by
+        default), the flatness law returns them from a step that holds before any law step
+        and starts its anti-windup's comparison from them. Each within the actuators' range
+        (``ValueError`` otherwise)."""
         super().reset(steer0=steer0, torque0=torque0)
 
     def _build(self, steer0: float, torque0: float) -> VehicleControllerArrays:
         m = self._model
+        if self._flatness:
+            z = build_flatness(self._settings, dt=self._dt, model=m)
+            z.s_lon[int(FST.TW)] = torque0
+            z.s_lon[int(FST.DELTA)] = steer0
+            return z
         return build_mfc("mfc-flat", self._settings, dt=self._dt, actuators=self._act,
                          mass=m.m, iz=m.iz, lf=m.lf, steer0=steer0, torque0=torque0)
 
     def step(self, *, vx: float, vy: float, r: float, vx_ref: float, y2_ref: float,
-             y2_ref_dot: float, ax_ref: float = 0.0, e_y: float | None = None,
+             y2_ref_dot: float, ax_ref: float = 0.0, y2_ref_ddot: float | None = None,
+             e_y: float | None = None,
              e_psi: float | None = None, e_y_ref: float = 0.0, e_y_ref_dot: float = 0.0,
              r_kin: float = 0.0, y2_per_r: float | None = None,
              applied_torque: float | None = None,
              applied_steer: float | None = None) -> tuple[float, float]:
         """One control step: returns (wheel torque [N m], road-wheel steer [rad]).
 
-        A bumpless start: until its estimator's window is full (the first ``window - 1``
-        steps, 49 ms at the default settings) each loop gives the :meth:`reset`'s ``torque0``
-        and ``steer0``. A step whose ``vx``, ``vy`` or ``r`` is not finite holds the outputs
-        applied last (the window keeps its time base); a non-finite ``e_y`` or ``e_psi``
-        leaves out the path correction for that step (its integral holds). The steer returned
-        is within ``actuators.max_steer``.
+        A bumpless start (model-free): until its estimator's window is full (the first
+        ``window - 1`` steps, 49 ms at the default settings) each loop gives the
+        :meth:`reset`'s ``torque0`` and ``steer0``. A step whose ``vx``, ``vy`` or ``r`` is not
+        finite holds the outputs applied last (the window keeps its time base; the flatness
+        law holds its last outputs); a non-finite ``e_y`` or ``e_psi`` leaves out the path
+        correction for that step (its integral holds). Below its hand-over speed the
+        flatness law hands over to its fallback (steer held, P on the speed;
+        :class:`~flatfree.controllers.flatness_control.FlatnessControlParams`). The steer
+        returned is within ``actuators.max_steer``.
 
         Conventions (ISO 8855): body axes at the CoG, x forward, y left, z up; the yaw rate,
         the steer and ``e_y`` positive to the left; the torque is the sum at the wheels, > 0
@@ -183,7 +224,12 @@ class FlatOutputController(_OwnLoopShell):
             feedforward: without it the speed lags the profile).
         y2_ref, y2_ref_dot : float
             Reference of y2 = lf m vy - Iz r [kg m^2/s] and its time derivative
-            [kg m^2/s^2], from the 3DoF model along the path (module docstring).
+            [kg m^2/s^2], from the 3DoF model along the path (module docstring; the
+            flatness law's with its own, scaled, design model).
+        y2_ref_ddot : float
+            Its second derivative [kg m^2/s^3]: the flatness law's feedforward, required
+            with :class:`FlatnessSettings` (``ValueError`` when left out), not read by the
+            model-free design (nu = 1).
         e_y, e_psi : float
             Measured lateral deviation from the path [m] and heading error (yaw minus the
             path's heading) [rad]. Required while ``settings.path_correction`` is on
@@ -205,8 +251,9 @@ class FlatOutputController(_OwnLoopShell):
         ------
         ValueError
             An argument that is not one real number (naming it), ``e_y`` / ``e_psi`` left out
-            with the path correction on, or a torque or steer that came out non-finite (the
-            arithmetic overflowed); the controller is then reset at its last finite commands.
+            with the path correction on, ``y2_ref_ddot`` left out for the flatness law, or a
+            torque or steer that came out non-finite (the arithmetic overflowed); the
+            controller is then reset at its last finite commands.
         """
         # the common path (floats) costs one type test per argument (_shell docstring)
         vx = vx if isinstance(vx, float) else real("vx", vx, "m/s")
@@ -218,6 +265,13 @@ class FlatOutputController(_OwnLoopShell):
         if not isinstance(y2_ref_dot, float):
             y2_ref_dot = real("y2_ref_dot", y2_ref_dot, "kg m^2/s^2")
         c = self._ref
+        if self._flatness:
+            if y2_ref_ddot is None:
+                raise ValueError("y2_ref_ddot = None: required with FlatnessSettings (the "
+                                 "flatness law's feedforward, kg m^2/s^3)")
+            if not isinstance(y2_ref_ddot, float):
+                y2_ref_ddot = real("y2_ref_ddot", y2_ref_ddot, "kg m^2/s^3")
+            c[_C_Y2DD] = y2_ref_ddot
         if self._settings.path_correction:
             if e_y is None or e_psi is None:
                 missing = " and ".join(k for k, v in (("e_y", e_y), ("e_psi", e_psi))
@@ -255,8 +309,8 @@ class FlatOutputController(_OwnLoopShell):
         c[_C_Y2D] = y2_ref_dot
         return self._step_kernel(vx, a_tw, a_delta, lambda: dict(
             vx=vx, vy=vy, r=r, vx_ref=vx_ref, y2_ref=y2_ref, y2_ref_dot=y2_ref_dot,
-            ax_ref=ax_ref, e_y=e_y, e_psi=e_psi, e_y_ref=e_y_ref, e_y_ref_dot=e_y_ref_dot,
-            r_kin=r_kin, y2_per_r=y2_per_r, applied_torque=applied_torque,
+            ax_ref=ax_ref, y2_ref_ddot=y2_ref_ddot, e_y=e_y, e_psi=e_psi, e_y_ref=e_y_ref,
+            e_y_ref_dot=e_y_ref_dot, r_kin=r_kin, y2_per_r=y2_per_r, applied_torque=applied_torque,
             applied_steer=applied_steer))
 
     @property
@@ -264,7 +318,11 @@ class FlatOutputController(_OwnLoopShell):
         """The loops' counters, flags and estimates after the last step
         (:class:`FlatOutputStatus`)."""
         z = self._arrays
+        if self._flatness:
+            law = flatness_status(z.s_lon)
+            return FlatOutputStatus(speed=None, lateral=None, flatness=law,
+                                    steer_held=law.code != 0)
         return FlatOutputStatus(
             speed=intelligent_status(z.p_lon, z.s_lon),
-            lateral=intelligent_status(z.p_lat, z.s_lat),
+            lateral=intelligent_status(z.p_lat, z.s_lat), flatness=None,
             steer_held=not intelligent_law_ran(z.p_lat, z.s_lat))

@@ -158,6 +158,7 @@ __all__ = [
     "FlatReference",
     "flat_reference",
     "flat_reference_from_lateral",
+    "flatness_status",
     "FlatnessControlParams",
     "check_flat_reference",
     "FlatnessControlStatus",
@@ -1025,6 +1026,16 @@ class FlatnessControlStatus:
     delta: float
 
 
+def flatness_status(s: np.ndarray) -> FlatnessControlStatus:
+    """The :class:`FlatnessControlStatus` of the state array ``s`` (:func:`make_state`)."""
+    return FlatnessControlStatus(
+        code=FCS(int(s[_ST])), handed_over=bool(s[_HO]), n_handover=int(s[_NHO]),
+        n_held=int(s[_NH]), e1=float(s[_E1]), e2=float(s[_E2]), e2_dot=float(s[_E2D]),
+        y2_dot=float(s[_Y2D]), integral1=float(s[_I1]), integral2=float(s[_I2]),
+        v1=float(s[_V1]), v2=float(s[_V2]), tw=float(s[_TW]), delta=float(s[_DE]),
+    )
+
+
 class FlatnessController(CompiledController):
     """Python shell over :func:`flatness_step`, following a :class:`FlatReference`.
 
@@ -1132,13 +1143,7 @@ class FlatnessController(CompiledController):
     @property
     def status(self) -> FlatnessControlStatus:
         """Flags, errors and counters after the last step (:class:`FlatnessControlStatus`)."""
-        s = self._s
-        return FlatnessControlStatus(
-            code=FCS(int(s[_ST])), handed_over=bool(s[_HO]), n_handover=int(s[_NHO]),
-            n_held=int(s[_NH]), e1=float(s[_E1]), e2=float(s[_E2]), e2_dot=float(s[_E2D]),
-            y2_dot=float(s[_Y2D]), integral1=float(s[_I1]), integral2=float(s[_I2]),
-            v1=float(s[_V1]), v2=float(s[_V2]), tw=float(s[_TW]), delta=float(s[_DE]),
-        )
+        return flatness_status(self._s)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self._params!r})"

@@ -801,6 +801,7 @@ class FlatnessSettings:
 
 _SETTINGS = {"mfc-natural": MfcNaturalSettings, "mfc-flat": MfcFlatSettings,
              "flatness": FlatnessSettings}
+_CONTROLLER_OF = {cls: name for name, cls in _SETTINGS.items()}
 
 
 def settings_from_mapping(controller: str, values: Mapping[str, Any]):
@@ -1190,20 +1191,19 @@ def f_hat_index() -> int:
 
 
 class _OwnLoopShell:
-    """What the own-loop shells of the model-free designs share (:class:`NaturalOutputController`,
+    """What the own-loop shells of the vehicle designs share (:class:`NaturalOutputController`,
     :class:`flatfree.controllers.flat_output.FlatOutputController`): the actuators' model
     that stands for an unknown applied input, the reset at the actuators' positions, the
     steer clipped to the range and the reset on an overflowed command. A subclass sets
-    ``_CONTROLLER`` (the engine's name of its design) and ``_SETTINGS`` (its settings class)
-    and builds its kernel's arrays in :meth:`_build`."""
+    ``_SETTINGS`` (the settings classes it takes) and builds its kernel's arrays in
+    :meth:`_build`."""
 
     __slots__ = ("_arrays", "_act", "_act_p", "_act_s", "_dt", "_settings", "_meas", "_ref",
                  "_prev", "_vx_prev")
 
     __copy__ = independent_copy
 
-    _CONTROLLER: ClassVar[str]
-    _SETTINGS: ClassVar[type]
+    _SETTINGS: ClassVar[tuple[type, ...]]  # the settings classes taken; the first the default
 
     def __init__(self, *, dt: float, actuators: ActuatorParams, settings) -> None:
         if not isinstance(actuators, ActuatorParams):
@@ -1211,9 +1211,10 @@ class _OwnLoopShell:
             raise ValueError(f"actuators = {actuators!r:.60}: expected flatfree.actuators."
                              "ActuatorParams (e.g. ActuatorParams.from_vehicle(vehicle))")
         if settings is None:
-            settings = self._SETTINGS()
+            settings = self._SETTINGS[0]()
         if not isinstance(settings, self._SETTINGS):
-            raise ValueError(f"settings = {settings!r}: expected {self._SETTINGS.__name__}")
+            raise ValueError(f"settings = {settings!r}: expected "
+                             f"{' or '.join(c.__name__ for c in self._SETTINGS)}")
         self._dt = positive("dt", dt, "s")
         self._act = actuators
         self._settings = settings
@@ -1221,7 +1222,8 @@ class _OwnLoopShell:
         self._ref = np.zeros(len(CREF))
         self._act_p = actuators.to_array(self._dt)
         self._prev = np.zeros(2)  # previous commands (torque, steer)
-        warn_if_untuned_period(self._CONTROLLER, settings, self._dt)  # once, not every reset
+        if isinstance(settings, _SampleCountSettings):  # once, not at every reset
+            warn_if_untuned_period(_CONTROLLER_OF[type(settings)], settings, self._dt)
         self.reset()
 
     @property
@@ -1385,8 +1387,7 @@ class NaturalOutputController(_OwnLoopShell):
 
     __slots__ = ()
 
-    _CONTROLLER = "mfc-natural"
-    _SETTINGS = MfcNaturalSettings
+    _SETTINGS = (MfcNaturalSettings,)
 
     def __init__(self, *, dt: float, actuators: ActuatorParams,
                  settings: MfcNaturalSettings | None = None) -> None:
