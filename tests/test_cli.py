@@ -30,7 +30,14 @@ from flatfree.cli import (
     count_corners,
     main,
 )
-from flatfree.scenario import CONTROLLERS, load_scenario, scenario_from_toml
+from flatfree.scenario import (
+    CONTROLLERS,
+    Fault,
+    Scenario,
+    Timing,
+    load_scenario,
+    scenario_from_toml,
+)
 from flatfree.tracks import track_names
 from flatfree.trajectory import Trajectory
 from flatfree.vehicles import vehicle_names
@@ -1011,3 +1018,22 @@ def test_track_and_recording_options_drop_the_old_files_shape_settings(tmp_path)
     assert (spa.reference.track, spa.reference.closed,
             spa.reference.smoothing_length_m) == ("Spa", None, 40.0)
     assert build_scenario(str(f)).reference.smoothing_length_m == 30.0  # the file's, kept
+
+
+def test_run_set_replaces_and_clears_the_faults(runner, tmp_path):
+    """--set fault=[{...}] gives a run its faults from the command line, --set fault= clears a
+    scenario file's (they could only be set in a file, and never removed)."""
+    f = tmp_path / "faulty.toml"
+    Scenario(timing=Timing(duration_s=1.0), faults=(
+        Fault(kind="steer_limit", t_start_s=0.2, duration_s=0.5, value=0.001),)).save(f)
+    cleared, replaced = tmp_path / "cleared", tmp_path / "replaced"
+    res = _invoke(runner, ["run", str(f), "--no-noise", "--set", "fault=", "--json",
+                           "--out", str(cleared)])
+    assert res.exit_code == 0, res.output
+    assert load_scenario(cleared / "scenario.toml").faults == ()
+    res = _invoke(runner, ["run", str(f), "--no-noise", "--json", "--out", str(replaced),
+                           "--set", ('fault=[{kind = "nan_measurement", channel = "y", '
+                           't_start_s = 0.5, duration_s = 0.05}]')])
+    assert res.exit_code == 0, res.output
+    assert load_scenario(replaced / "scenario.toml").faults == (Fault(
+        kind="nan_measurement", channel="y", t_start_s=0.5, duration_s=0.05),)

@@ -399,7 +399,8 @@ def test_a_files_controller_settings_and_overrides_name_the_file_line_and_field(
         tmp_path, text, words):
     """The controller's settings and the vehicle overrides were checked only by the run, whose
     error named neither the file nor the line (and blamed the controller for the car's
-    mass): load_scenario checks them as a setting of them is checked."""
+    mass): load_scenario checks them as a setting of them is checked, and so does
+    scenario_from_toml for a text without a file (it let them through to the run)."""
     f = tmp_path / "mine.toml"
     f.write_text(text)
     with pytest.raises(ValueError) as info:
@@ -408,8 +409,9 @@ def test_a_files_controller_settings_and_overrides_name_the_file_line_and_field(
     assert msg.startswith(f"{f}, "), msg
     for w in words:
         assert w in msg, (w, msg)
-    # the text alone is a scenario (a run checks these parts): only a file is checked
-    assert scenario_from_toml(text).controller_settings is not None
+    with pytest.raises(ValueError) as info:
+        scenario_from_toml(text)
+    assert str(info.value) == msg.replace(str(f), "<scenario>", 1)
 
 
 # ------------------------------------------------------------------------------------------
@@ -667,7 +669,7 @@ def test_an_inline_table_merges_its_keys_into_the_table():
             ("reference={j_lat_max = -1}", ["setting reference={j_lat_max = -1}:",
                                             "reference.j_lat_max = -1.0", "> 0"]),
             ("reference={wheels = 4}", ["field reference.wheels", "unknown key"]),
-            ("road={patch = []}", ["road.patch", "TOML file"]),
+            ("road={patch = [1]}", ["road.patch", "replaces all of it"]),
             ('reference={track = "Spa", recording = "LVMS_23_01_04_B"}', ["not both"]),
             ("controller_settings={alpha_lat = 0}", ["alpha_lat = 0", "> 0"])):
         with pytest.raises(ValueError) as info:
@@ -725,9 +727,13 @@ def test_setting_a_recording_replaces_the_track_and_back():
         (["seed.x=1"], ["setting seed.x=1", "seed = 42 is not a table"]),
         (["reference.track.x=1"], ["reference.track = 'Norisring' is not a table"]),
         (["fault.kind=steer_limit"], ["setting fault.kind=steer_limit", "[[fault]]",
-                                      "TOML file"]),
-        (["road.patch.mu=0.5"], ["setting road.patch.mu=0.5", "[[road.patch]]", "TOML file"]),
-        (["road.patch=[]"], ["road.patch", "TOML file"]),
+                                      "replaces all of it", "one entry's field"]),
+        (["road.patch.mu=0.5"], ["setting road.patch.mu=0.5", "[[road.patch]]",
+                                 "one entry's field"]),
+        (["road.patch=3"], ["setting road.patch=3", "replaces all of it"]),
+        (["fault=[1, 2]"], ["setting fault=[1, 2]", "replaces all of it"]),
+        (['fault=[{kind = "nan_measurement", channel = "x"}]'],
+         ["field fault", "missing key"]),
         (["wheels=4"], ["setting wheels=4", "field wheels", "unknown key"]),
         (["wheels.front=4"], ["setting wheels.front=4", "wheels is not a table"]),
         (["timing.x.y=1"], ["setting timing.x.y=1", "timing has no table 'x'"]),
@@ -900,3 +906,29 @@ def test_a_car_the_model_free_settings_were_not_tuned_on_is_warned_about(tmp_pat
                    named_scenario("paper-mismatch", vehicle=str(copy), duration_s=1.0),
                    retuned):
             prepare(sc)
+
+
+def test_the_arrays_of_tables_are_set_whole_and_cleared():
+    """``fault=[{...}, ...]`` and ``road.patch=[{...}]`` replace the arrays of tables (each
+    entry checked as a [[fault]] table is), ``fault=`` and ``[]`` clear them: the faults of a
+    scenario could not be removed from the command line."""
+    from flatfree.scenario import Fault, FrictionPatch
+
+    base = Scenario()
+    one = base.with_settings([('fault=[{kind = "nan_measurement", channel = "x", '
+                              't_start_s = 2.0, duration_s = 0.05}]')])
+    assert one.faults == (Fault(kind="nan_measurement", channel="x", t_start_s=2.0,
+                                duration_s=0.05),)
+    two = one.with_settings([('fault=[{kind = "steer_limit", t_start_s = 1, duration_s = 1, '
+                             'value = 0.01}, {kind = "nan_measurement", channel = "y", '
+                             't_start_s = 3, duration_s = 0.1}]')])
+    assert [f.kind for f in two.faults] == ["steer_limit", "nan_measurement"]
+    for clear in ("fault=", "fault=[]"):
+        assert two.with_settings([clear]).faults == ()
+    assert two.with_settings({"fault": None}).faults == ()
+    patched = base.with_settings(["road.patch=[{s_start_m = 0, s_end_m = 80, mu = 0.5}]"])
+    assert patched.road.patches == (FrictionPatch(s_start_m=0.0, s_end_m=80.0, mu=0.5),)
+    assert patched.road.mu == base.road.mu
+    assert patched.with_settings(["road={patch = []}"]).road.patches == ()
+    # a round trip through the file keeps them
+    assert scenario_from_toml(two.to_toml()) == two

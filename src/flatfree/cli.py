@@ -826,7 +826,8 @@ other fields kept ('reference={j_lat_max = 15, v_max = 40}'). FIELD= (nothing af
 puts a field back to its default, and TABLE= a whole table (timing=, sensors.y=: exact;
 controller_settings=: the controller's defaults). The --set options are applied after the
 other options, so they win. Faults ([[fault]]) and friction patches ([[road.patch]]) are set
-in a TOML file.
+whole, as an array of inline tables ('fault=[{kind = "steer_limit", t_start_s = 5,
+duration_s = 1, value = 0.01}]'), and cleared with fault= (road.patch=).
 
 """ + _scenario_names_help() + """
 

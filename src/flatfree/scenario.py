@@ -705,12 +705,30 @@ def scenario_from_toml(text: str, source: str = "<scenario>", *,
     (:func:`load_scenario` passes the file's folder; module docstring); they come back
     absolute. None: the values are kept as written (a relative path is then read against the
     current directory when the scenario runs).
+
+    Besides the scenario's own checks, the controller's settings (for the text's controller)
+    and the ``[vehicle_overrides]`` (on its car, read for them) are checked as a run checks
+    them, so that a mistake there is a ``ValueError`` naming the source, the line and the
+    field rather than the run's error. A car without overrides is not read here (a missing
+    car file is the run's error).
     """
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{source}: malformed TOML: {exc}") from None
-    return _scenario_from_doc(doc, _Where(text, source), base_dir)
+    where = _Where(text, source)
+    sc = _scenario_from_doc(doc, where, base_dir)
+    # what a scenario leaves to the run, checked here so that the error names the source, the
+    # line and the field: the controller's settings, and the text's vehicle_overrides (on
+    # its car, which is read then; a car without overrides is read by the run)
+    for table, values, top, exc in _part_errors(sc, vehicle=bool(sc.vehicle_overrides)):
+        # a key quoted first ("['alpha_lat'] unknown ...; valid keys: cf_scale, ..."), else
+        # the one the message names first ("alpha_lat = '48.9' ...")
+        key = next((k for k in values if repr(k) in str(exc)), None) or _field_in_message(
+            str(exc), values)
+        raise (where.error(exc, table, key) if key is not None
+               else where.error(exc, None, top)) from None
+    return sc
 
 
 def _scenario_from_doc(doc: dict[str, Any], where: _Where,
@@ -795,11 +813,8 @@ def load_scenario(path: str | Path) -> Scenario:
     """Read a scenario TOML file; its relative file paths are relative to its folder (module
     docstring) and come back absolute.
 
-    Besides :func:`scenario_from_toml`'s checks, the controller's settings (for the file's
-    controller) and the file's ``[vehicle_overrides]`` (on its car, read for them) are checked
-    as a run checks them, so that a mistake there is a ``ValueError`` naming the file, the
-    line and the field rather than the run's error. A car without overrides is not read here
-    (a missing car file is the run's error)."""
+    Checked as :func:`scenario_from_toml` checks a text (the controller's settings and the
+    ``[vehicle_overrides]`` too); the errors name the file, the line and the field."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -810,19 +825,7 @@ def load_scenario(path: str | Path) -> Scenario:
     except OSError as exc:  # a folder, no permission, ...
         raise ValueError(f"scenario file {path}: cannot read it ({exc.strerror or exc})"
                          ) from None
-    sc = scenario_from_toml(text, source=str(path), base_dir=path.parent)
-    # what a scenario leaves to the run, checked here so that the error names the file, the
-    # line and the field: the controller's settings, and the file's vehicle_overrides (on
-    # its car, which is read then; a car without overrides is read by the run)
-    where = _Where(text, str(path))
-    for table, values, top, exc in _part_errors(sc, vehicle=bool(sc.vehicle_overrides)):
-        # a key quoted first ("['alpha_lat'] unknown ...; valid keys: cf_scale, ..."), else
-        # the one the message names first ("alpha_lat = '48.9' ...")
-        key = next((k for k in values if repr(k) in str(exc)), None) or _field_in_message(
-            str(exc), values)
-        raise (where.error(exc, table, key) if key is not None
-               else where.error(exc, None, top)) from None
-    return sc
+    return scenario_from_toml(text, source=str(path), base_dir=path.parent)
 
 
 # ------------------------------------------------------------------------------------------
@@ -954,9 +957,22 @@ def _assign(doc: dict[str, Any], st: _Setting, explicit: set[tuple[str, ...]]) -
     for arr in _TABLE_ARRAYS:
         if path[:len(arr)] == arr:
             name = ".".join(arr)
-            raise ValueError(f"{_labels([st])}: {name} is an array of tables ([[{name}]]), "
-                             "which a setting cannot address: set it in a TOML file "
-                             "(flatfree scenario new)")
+            value = st.value
+            if path == arr and (value is None or (isinstance(value, list) and all(
+                    isinstance(v, Mapping) for v in value))):
+                # the whole array: none (nothing after the =, or []) or its tables, replaced
+                node = doc
+                for key in arr[:-1]:
+                    node = node.setdefault(key, {})
+                if value:
+                    node[arr[-1]] = [dict(v) for v in value]
+                else:
+                    node.pop(arr[-1], None)
+                return
+            raise ValueError(f"{_labels([st])}: {name} is an array of tables ([[{name}]]): "
+                             f"a setting replaces all of it ({name}=[{{KEY = VALUE, ...}}, "
+                             f"...]) or clears it ({name}= or {name}=[]), and cannot address "
+                             "one entry's field")
     node = doc
     for i, key in enumerate(path[:-1]):
         prefix = path[:i + 1]
@@ -1056,16 +1072,18 @@ def scenario_with_settings(sc: Scenario,
     starts exact; any other after its ``TABLE=``: from its defaults). Setting
     ``reference.track`` drops the scenario's recording and ``reference.recording`` its
     track, as ``flatfree run --track`` / ``--recording`` do (setting both is an error). The
-    arrays of tables ``[[fault]]`` and ``[[road.patch]]`` cannot be addressed by a path: set
-    them in a TOML file. An integer given to a float field is stored as a float.
+    arrays of tables ``[[fault]]`` and ``[[road.patch]]`` are set whole: an array of inline
+    tables replaces them (``fault=[{kind = "nan_measurement", channel = "x", t_start_s = 2,
+    duration_s = 0.05}]``), nothing after the ``=`` or ``[]`` clears them; one entry's field
+    cannot be addressed. An integer given to a float field is stored as a float.
 
     Raises
     ------
     ValueError
         A malformed setting (no ``=``, an empty path part), a path into a value that is not a
-        table or into an array of tables, a value of the wrong type, or any validation error
-        of the resulting scenario (NaN is refused wherever a number is checked): the message
-        names the setting as written, the field and the value.
+        table or into an entry of an array of tables, a value of the wrong type, or any
+        validation error of the resulting scenario (NaN is refused wherever a number is
+        checked): the message names the setting as written, the field and the value.
     """
     return _with_settings(sc, _settings(settings))
 
