@@ -484,6 +484,37 @@ def test_noise_drawn_in_blocks_is_the_noise_drawn_whole(block):
     np.testing.assert_array_equal(measure(), _measure(whole, truth))
 
 
+@pytest.mark.parametrize("block", [None, 7, 4096])
+def test_unread_channels_draw_nothing_and_measure_nan(block):
+    """compile(unread=...): those channels measure NaN at every step (no noise drawn, through
+    the blocks too) and every other channel's errors are those of a compile without it."""
+    names = ("x", "y", "psi", "vx", "vy", "r", "ax", "ay")
+    suite = SensorSuite({k: SensorChannel(noise_std=0.01, markov_std=0.02, markov_tau_s=0.5)
+                         for k in names})
+    n = 9_000
+    full = suite.compile(names, 0.001, n, seed=3)
+    lean = suite.compile(names, 0.001, n, seed=3, block=block, unread=("vy", "ay"))
+    noise = lean.noise if block is None else _blocks_of(lean, n)
+    skip = [names.index("vy"), names.index("ay")]
+    keep = [i for i in range(len(names)) if i not in skip]
+    assert np.all(np.isnan(noise[skip]))
+    np.testing.assert_array_equal(noise[keep], full.noise[keep])
+    truth = np.ones(len(names))
+    out = np.empty(len(names))
+    sense_step(0, truth, lean.table, lean.noise, 0, lean.history, lean.held, out)
+    assert np.all(np.isnan(out[skip])) and np.all(np.isfinite(out[keep]))
+    with pytest.raises(ValueError, match=r"unread = \['vz'\]: not among"):
+        suite.compile(names, 0.001, n, seed=3, unread=("vz",))
+
+
+def _blocks_of(cs, n):
+    parts = [cs.noise.copy()]
+    while sum(p.shape[1] for p in parts) < n:
+        cs.next_block()
+        parts.append(cs.noise.copy())
+    return np.concatenate(parts, axis=1)[:, :n]
+
+
 def test_a_block_is_a_whole_number_of_steps_and_whole_sensors_have_no_next_block():
     suite = SensorSuite({"x": SensorChannel(noise_std=0.1)})
     for bad in (0, -3, 2.5, True, "8"):

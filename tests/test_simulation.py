@@ -1329,3 +1329,27 @@ def test_a_runs_signals_are_contiguous_read_only_and_its_own():
     base = left["x"].base
     assert base.shape == (27, len(left)) and base.nbytes == 27 * 8 * len(left)
     assert all(np.shares_memory(left[k], base) for k in ("time", "x", "steer", "t_ref"))
+
+
+@pytest.mark.parametrize("controller, settings", [
+    ("mfc-natural", {}), ("mfc-natural", {"estimator_lat": "imu"}), ("mfc-flat", {}),
+    ("flatness", {})], ids=["natural", "natural-imu", "mfc-flat", "flatness"])
+def test_channels_no_controller_reads_are_not_drawn_and_change_nothing(
+        monkeypatch, controller, settings):
+    """The loop draws no noise for the channels its controller never reads (unread_channels:
+    vy, ax, ay for the natural-output design; they measure NaN): the trajectory is the one of
+    a run that measures every channel, bit for bit. A controller that read one of them would
+    see NaN and hold, and differ here."""
+    import flatfree.simulation as sim
+
+    sc = _scenario(controller=controller, controller_settings=settings,
+                   timing=Timing(duration_s=1.5, log_dt_s=0.01))
+    skipped = sim.unread_channels(sim.prepare(sc).controller)
+    assert skipped == {"mfc-natural": () if settings else ("vy", "ax", "ay")}.get(
+        controller, ("ax", "ay"))
+    lean = simulate(sc)
+    monkeypatch.setattr(sim, "unread_channels", lambda ctrl: ())
+    full = simulate(sc)
+    assert lean.status is Status.COMPLETED
+    for k in full:
+        np.testing.assert_array_equal(lean[k], full[k], err_msg=k)

@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import math
 import zlib
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -194,12 +194,13 @@ class _NoiseDraw:
     drifts' filter states, carried from a block to the next."""
 
     def __init__(self, chans: list[SensorChannel], names: tuple[str, ...], seed: int,
-                 dt_control: float) -> None:
+                 dt_control: float, unread: frozenset[str] = frozenset()) -> None:
         self._chans = [(i, ch, names[i], math.exp(-dt_control / ch.markov_tau_s)
                         if ch.markov_std > 0.0 else 0.0)
                        for i, ch in enumerate(chans)
                        # nothing drawn: the other channels' streams are their own anyway
-                       if ch.noise_std > 0.0 or ch.markov_std > 0.0]
+                       if (ch.noise_std > 0.0 or ch.markov_std > 0.0)
+                       and names[i] not in unread]
         self._seed = seed
         self._start()
 
@@ -285,7 +286,8 @@ class SensorSuite:
         })
 
     def compile(self, names: tuple[str, ...], dt_control: float, n_steps: int,
-                seed: int, *, block: int | None = None) -> CompiledSensors:
+                seed: int, *, block: int | None = None,
+                unread: Collection[str] = ()) -> CompiledSensors:
         """Arrays for the compiled loop, channels in the order of ``names``.
 
         ``block`` None: the noise of all ``n_steps`` control steps, drawn now. A block of
@@ -297,8 +299,17 @@ class SensorSuite:
         Each channel's error comes from its own streams (:func:`channel_streams`), so it does
         not depend on ``n_steps`` beyond its length, on the order of ``names`` or on the other
         channels.
+
+        ``unread``: names that nobody reads in this run (the closed loop's built-in controller
+        does not use them): no noise is drawn for them and they measure NaN, so that a reader
+        shows up as a held (NaN) input instead of a silent value; the other channels' errors
+        are those of a run that measures every name (their streams are their own).
         """
         dt_control = positive("dt_control", dt_control, "s")
+        unread = frozenset(unread)
+        if not unread <= set(names):
+            raise ValueError(f"unread = {sorted(unread - set(names))}: not among the measured "
+                             f"signals {', '.join(names)}")
         unknown = set(self.channels) - set(names)
         if unknown:
             raise ValueError(
@@ -337,7 +348,10 @@ class SensorSuite:
         # a channel's sequence is a row: drawn in place (a column of a (n_steps, n) table was a
         # strided copy of every draw: ~15 -> 12.2 ms for a Norisring run's noise)
         noise = np.zeros((n, n_steps))
-        draw = _NoiseDraw(chans, tuple(names), seed, dt_control)
+        for i, name in enumerate(names):
+            if name in unread:
+                noise[i] = np.nan  # (never drawn into: the blocks rewrite the drawn rows only)
+        draw = _NoiseDraw(chans, tuple(names), seed, dt_control, unread)
         draw.next(noise)
         max_delay = int(table[:, _DELAY].max()) if n else 0
         history = np.full((n, max_delay + 1), np.nan)

@@ -1052,6 +1052,21 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
                     steer0)
 
 
+def unread_channels(ctrl: VehicleControllerArrays) -> tuple[str, ...]:
+    """The sensor channels the loop's controller never reads: no noise is drawn for them
+    (:meth:`flatfree.sensors.SensorSuite.compile`, ``unread``; a third of a lap's noise for
+    the natural-output controller). Every design reads the pose (the path's schedule, e_y,
+    e_psi), vx (logged as ``meas_vx``) and r; the flat-output designs vy; only a controller
+    that forms e_y'' (the imu estimator; a Python controller gets every column) reads vy,
+    ax and ay. The trajectory is the same bit for bit (each channel draws from its own
+    streams; tests/test_simulation.py)."""
+    if wants_ey_ddot(ctrl.kind, ctrl.coef):
+        return ()
+    if ctrl.kind == KIND.MFC_NATURAL:
+        return ("vy", "ax", "ay")
+    return ("ax", "ay")
+
+
 class PythonController(Protocol):
     """A user's controller for :func:`simulate` (the slower, Python door).
 
@@ -1212,7 +1227,8 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
     # the sensor noise a block at a time (the loop stops at a block's end for the next one)
     t_draw = time.perf_counter()
     sens = sc.effective_sensors.compile(SENSOR_CHANNELS, timing.control_dt_s, n_ctrl, sc.seed,
-                                        block=_NOISE_BLOCK)
+                                        block=_NOISE_BLOCK,
+                                        unread=unread_channels(prep.controller))
     noise0_s = time.perf_counter() - t_draw
     try:  # the log of the whole duration
         # a row per signal (len(LOG), n_log): each signal contiguous, and the trajectory

@@ -129,6 +129,7 @@ References
 from __future__ import annotations
 
 import enum
+import functools
 import math
 from dataclasses import dataclass
 
@@ -894,26 +895,46 @@ class IntelligentParams:
         p[_AW] = ANTI_WINDUP_CODES[self.anti_windup]
         p[_L] = L
         p[_CMAX] = self.correction_max
-        if self.estimator == "algebraic":
-            wy, wu = f_estimator_weights(self.nu, n, self.dt)  # NOTES.md algebraic estimators
-        else:
-            # NOTES.md simple variant: F = y^(nu)_hat - alpha u_{k-1}
-            wy = derivative_weights(n, self.dt, order=self.nu)
-            wu = np.zeros(n - 1)
-            wu[0] = -1.0
-        p[_HP : _HP + n] = wy
-        p[_HP + L : _HP + L + n - 1] = wu
+        nd = 0
         if self.nu == 2:
             nd = n if self.derivative_window is None else int(self.derivative_window)
-            if self.derivative == "algebraic":
-                wdy = derivative_weights(nd, self.dt, order=1)  # paper eq. (Derivative), NOTES
-                wdu = np.zeros(nd - 1)
-            else:
-                wdy, wdu = model_derivative_weights(nd, self.dt)
-            p[_HP + 2 * L : _HP + 2 * L + nd] = wdy
-            p[_HP + 3 * L : _HP + 3 * L + nd - 1] = wdu
-        _moment_constants(p, L)
+        # the weights and their moment form: the same for every controller of these settings
+        # (a run builds two, a sweep hundreds; ~1-2 ms each for the natural-output design)
+        w = _estimator_block(int(self.nu), n, L, float(self.dt), self.estimator,
+                             self.derivative, nd)
+        p[_HP:] = w[_HP:]
+        p[_MOM] = w[_MOM]
+        p[_REFRESH] = w[_REFRESH]
         return p
+
+
+@functools.lru_cache(maxsize=64)
+def _estimator_block(nu: int, n: int, L: int, dt: float, estimator: str, derivative: str,
+                     nd: int) -> np.ndarray:
+    """A read-only parameter array holding only the estimator's weights (window ``n``, the
+    derivative's ``nd`` for nu = 2, buffer ``L``) and their moment form
+    (:func:`_moment_constants`: the block and the header's ``MOM``, ``REFRESH``)."""
+    p = np.zeros(_HP + 4 * L + MOMENT_BLOCK, dtype=np.float64)
+    if estimator == "algebraic":
+        wy, wu = f_estimator_weights(nu, n, dt)  # NOTES.md algebraic estimators
+    else:
+        # NOTES.md simple variant: F = y^(nu)_hat - alpha u_{k-1}
+        wy = derivative_weights(n, dt, order=nu)
+        wu = np.zeros(n - 1)
+        wu[0] = -1.0
+    p[_HP : _HP + n] = wy
+    p[_HP + L : _HP + L + n - 1] = wu
+    if nu == 2:
+        if derivative == "algebraic":
+            wdy = derivative_weights(nd, dt, order=1)  # paper eq. (Derivative), NOTES
+            wdu = np.zeros(nd - 1)
+        else:
+            wdy, wdu = model_derivative_weights(nd, dt)
+        p[_HP + 2 * L : _HP + 2 * L + nd] = wdy
+        p[_HP + 3 * L : _HP + 3 * L + nd - 1] = wdu
+    _moment_constants(p, L)
+    p.setflags(write=False)
+    return p
 
 
 #: A fit of the weights by the moment polynomials counts as exact within this fraction of the
