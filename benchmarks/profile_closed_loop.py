@@ -171,7 +171,12 @@ def _end_to_end(sc, tr) -> None:
     first, the bundled track and car built again: the two alone), the sensor noise the lap
     draws (a block at a time, up to the block of its last step)."""
     from flatfree.sensors import SENSOR_CHANNELS
-    from flatfree.simulation import _NOISE_BLOCK, flying_lap_speed, reference_of
+    from flatfree.simulation import (
+        _NOISE_BLOCK,
+        flying_lap_speed,
+        reference_of,
+        unread_channels,
+    )
     from flatfree.tracks import load_track
     from flatfree.tracks.loaders import _bundled_track
     from flatfree.vehicles.params import _preset
@@ -206,16 +211,18 @@ def _end_to_end(sc, tr) -> None:
     print(f"    reference (track, profile)       {best(lambda: reference_of(sc)) * 1e3:7.1f} ms")
     fly = best(lambda: flying_lap_speed(ref["s_path"], ref["vx"], prep.vehicle, closed=True))
     print(f"    flying-lap start speed           {fly * 1e3:7.1f} ms")
+    unread = unread_channels(prep.controller)  # the channels the controller reads, as the loop
+
     def draw():
         cs = sc.effective_sensors.compile(SENSOR_CHANNELS, sc.timing.control_dt_s, n_ctrl,
-                                          sc.seed, block=_NOISE_BLOCK)
+                                          sc.seed, block=_NOISE_BLOCK, unread=unread)
         while cs.first_step + cs.noise.shape[1] < n_run:
             cs.next_block()
         return cs.first_step + cs.noise.shape[1]
 
     drawn = draw()
     print(f"  sensor noise                       {best(draw) * 1e3:7.1f} ms "
-          f"({drawn} control steps x {len(SENSOR_CHANNELS)} channels, in blocks of "
+          f"({drawn} control steps x {len(SENSOR_CHANNELS) - len(unread)} channels, in blocks of "
           f"{_NOISE_BLOCK}; the allotted duration has {n_ctrl})")
 
 

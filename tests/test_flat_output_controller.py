@@ -166,7 +166,7 @@ def test_path_correction_steers_back_to_the_path():
     assert steer_after(paper, 0.5) == steer_after(paper, 0.0) == 0.0
 
 
-def test_nonfinite_measurement_holds_and_lost_pose_skips_the_correction():
+def test_nonfinite_measurement_holds_and_a_lost_pose_holds_the_correction():
     c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
     args = dict(vx=20.0, vy=0.1, r=0.05, vx_ref=20.0, y2_ref=0.0, y2_ref_dot=0.0, e_y=0.1,
                 e_psi=0.0)
@@ -177,6 +177,79 @@ def test_nonfinite_measurement_holds_and_lost_pose_skips_the_correction():
     assert c.status.steer_held and c.status.lateral.nonfinite and not c.status.speed.nonfinite
     tw, de = c.step(**{**args, "e_y": math.nan, "e_psi": math.nan})
     assert math.isfinite(tw) and math.isfinite(de) and not c.status.steer_held
+
+
+@pytest.mark.parametrize("lost", ["e_y", "e_psi", "vx_ref", "r_kin", "y2_per_r"])
+@pytest.mark.parametrize("design", ["mfc-flat", "flatness"])
+def test_a_lost_sample_of_the_correction_holds_its_shift(design, lost):
+    """One non-finite input of the path correction holds its last y2 shift: it was left out
+    for that period and the y2 reference jumped back to the uncorrected one (the flatness
+    law's steer 0.080 -> 0.015 -> 0.080 rad at a 0.3 m deviation, one sample of e_y lost).
+    """
+    from flatfree.controllers.vehicle import FlatnessSettings
+
+    settings = FlatnessSettings() if design == "flatness" else MfcFlatSettings()
+
+    args = dict(vx=20.0, vy=0.0, r=0.0, vx_ref=20.0, y2_ref=0.0, y2_ref_dot=0.0,
+                y2_ref_ddot=0.0, e_y=-0.3, e_psi=0.0, r_kin=0.0,
+                # vx_ref reaches the correction through the model's d y2 / d r
+                y2_per_r=None if lost == "vx_ref" else -5000.0)
+    c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL, settings=settings)
+    for _ in range(300):
+        before = c.step(**args)
+    shift = c.status.y2_shift
+    assert shift != 0.0 and not c.status.correction_held
+    lost_step = c.step(**{**args, lost: math.nan})
+    assert c.status.correction_held and c.status.y2_shift == shift
+    assert abs(lost_step[1] - before[1]) < 2e-3, (before, lost_step)  # no spike
+    after = c.step(**args)
+    assert not c.status.correction_held and math.isfinite(after[1])
+
+
+def test_at_a_standstill_the_steer_is_held_and_the_flatness_law_pulls_away():
+    """The audit's standstill: the model-free iPI wound the wheels to their lock at 0 m/s with
+    a 0.5 m deviation (0.6 rad after 60 s), the flatness law kept 0 torque at 0 m/s (a bad
+    measurement) and never pulled away."""
+    from flatfree.controllers.vehicle import FlatnessSettings
+
+    c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+    c.reset(steer0=0.01)
+    k = dict(vy=0.0, r=0.0, y2_ref=0.0, y2_ref_dot=0.0, e_psi=0.0)
+    for _ in range(5000):
+        tw, de = c.step(vx=0.0, vx_ref=0.0, e_y=0.5, **k)
+    assert de == 0.01 and c.status.steer_held
+    free = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
+                                settings=MfcFlatSettings(steer_min_speed=0.0))
+    for _ in range(5000):
+        _, de_free = free.step(vx=0.0, vx_ref=0.0, e_y=0.5, **k)
+    assert abs(de_free) > 0.01  # without the hold it winds up: 0.0145 rad in 5 s, measured
+    law = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
+                               settings=FlatnessSettings())
+    tw, _ = law.step(vx=0.0, vx_ref=5.0, e_y=0.0, y2_ref_ddot=0.0, **k)
+    assert tw > 0.0 and law.status.flatness.handed_over and law.status.steer_held
+
+
+def test_the_flatness_laws_torque_is_within_the_actuators_range():
+    from flatfree.controllers.vehicle import FlatnessSettings
+
+    law = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
+                               settings=FlatnessSettings())
+    k = dict(vy=0.0, r=0.0, y2_ref=0.0, y2_ref_dot=0.0, y2_ref_ddot=0.0, e_y=0.0, e_psi=0.0)
+    assert law.step(vx=20.0, vx_ref=0.0, **k)[0] == -ACT.max_brake_torque  # -47.7 kN m asked
+    assert law.step(vx=20.0, vx_ref=1e300, **k)[0] == ACT.max_drive_torque
+    assert law.status.flatness.tw > ACT.max_drive_torque  # the law's own, unclipped
+
+
+def test_status_before_a_step_and_for_period():
+    from flatfree.controllers.vehicle import FlatnessSettings
+
+    for settings in (MfcFlatSettings(), FlatnessSettings()):
+        c = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL, settings=settings)
+        st = c.status
+        assert st.steer_held and st.y2_shift == 0.0 and not st.correction_held
+        assert settings.for_period(0.001) == settings  # the tuned period: unchanged
+    assert FlatnessSettings().for_period(0.01) == FlatnessSettings()  # no sample counts
+    assert MfcFlatSettings().for_period(0.01).window_lat == 5
 
 
 def test_bad_inputs_are_named():
@@ -192,10 +265,13 @@ def test_bad_inputs_are_named():
         c.step(**args, e_y=0.0, e_psi=0.0, y2_per_r=[1.0])
     with pytest.raises(ValueError, match="applied_steer"):
         c.step(**args, e_y=0.0, e_psi=0.0, applied_steer="x")
-    # without the correction the pose is not needed
+    # without the correction the pose is not needed, but checked when given
     paper = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
                                  settings=MfcFlatSettings(path_correction=False))
     assert paper.step(**args) == (0.0, 0.0)
+    for name, bad in (("e_y", "abc"), ("e_psi", [0.0]), ("e_y", 1 + 0j), ("e_psi", True)):
+        with pytest.raises(ValueError, match=rf"^{name} = "):
+            paper.step(**args, **{name: bad})
     with pytest.raises(ValueError, match="model"):
         FlatOutputController(dt=0.001, actuators=ACT, model=CAR)
     with pytest.raises(ValueError, match="actuators"):

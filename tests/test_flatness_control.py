@@ -648,8 +648,7 @@ def test_bad_measurements_and_references_hold_the_previous_output():
     ref5 = (20.0, 0.0, 10.0, 0.0, 0.0)
     u0 = flatness_step(p, s, 19.0, 0.1, 0.02, *ref5, 0.01, NAN, NAN)
     i1 = s[FST.I1]
-    for meas in ((NAN, 0.1, 0.02), (19.0, np.inf, 0.02), (19.0, 0.1, NAN), (0.0, 0.1, 0.02),
-                 (-3.0, 0.1, 0.02)):
+    for meas in ((NAN, 0.1, 0.02), (19.0, np.inf, 0.02), (19.0, 0.1, NAN)):
         assert flatness_step(p, s, *meas, *ref5, 0.01, NAN, NAN) == u0
         assert s[FST.STATUS] == FCS.bad_measurement
     for bad in range(5):
@@ -658,7 +657,24 @@ def test_bad_measurements_and_references_hold_the_previous_output():
         assert flatness_step(p, s, 19.0, 0.1, 0.02, *r, 0.01, NAN, NAN) == u0
         assert s[FST.STATUS] == FCS.bad_reference
     assert flatness_step(p, s, 19.0, 0.1, 0.02, *ref5, 0.0, NAN, NAN) == u0  # dt = 0
-    assert s[FST.I1] == i1 and s[FST.N_HELD] == 11  # integrators untouched
+    assert s[FST.I1] == i1 and s[FST.N_HELD] == 9  # integrators untouched
+
+
+def test_a_standstill_or_reversing_speed_hands_over_and_pulls_away():
+    """vx <= 0 is below the hand-over speed: the fallback's P on speed drives toward the
+    reference, the steer held (it was held as a bad measurement: a car stopped at 0 m/s kept
+    its last torque, 0 after a reset, and never pulled away)."""
+    fp = FlatnessControlParams(model=P406, gains=GAINS, dt=0.01)
+    p = fp.to_array()
+    ref5 = (5.0, 0.0, 0.0, 0.0, 0.0)
+    for vx in (0.0, -0.001, -3.0):
+        s = make_state(p)
+        s[FST.DELTA] = 0.03
+        tw, de = flatness_step(p, s, vx, 0.0, 0.0, *ref5, 0.01, NAN, NAN)
+        assert s[FST.STATUS] == FCS.handover and de == 0.03
+        # m_eff = m (wheel_accel "zero", the parameters' default)
+        assert tw == pytest.approx(P406.m * P406.wheel_radius * fp.k_fallback * (5.0 - vx))
+        assert tw > 0.0
 
 
 def test_absurd_wheel_acceleration_falls_back_not_nan():

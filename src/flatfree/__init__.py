@@ -47,6 +47,8 @@ _API = {
     "NaturalOutputController": "flatfree.controllers.vehicle",
     "MfcNaturalSettings": "flatfree.controllers.vehicle",
     "FlatOutputController": "flatfree.controllers.flat_output",
+    "FlatOutputStatus": "flatfree.controllers.flat_output",
+    "NaturalOutputStatus": "flatfree.controllers.vehicle",
     "MfcFlatSettings": "flatfree.controllers.vehicle",
     "FlatnessSettings": "flatfree.controllers.vehicle",
     "ActuatorParams": "flatfree.actuators",

@@ -33,6 +33,8 @@ from flatfree.controllers.intelligent import (
     intelligent_status,
 )
 from flatfree.controllers.vehicle import (
+    _OUTER_HELD,
+    _OUTER_SHIFT,
     CREF,
     MEAS,
     FlatnessSettings,
@@ -71,15 +73,24 @@ class FlatOutputStatus:
         counters (``None`` for the model-free design).
     steer_held : bool
         The last steer is not the law's: the model-free design's window still filling (the
-        start's steer held) or a non-finite ``vx``, ``vy``, ``r`` or y2 reference (the steer
-        applied last held); for the flatness law any step but ``FCS.ok`` (a bad measurement
-        or reference, or the fallback below the hand-over speed).
+        start's steer held), a non-finite ``vy``, ``r`` or y2 reference, or a speed below
+        ``steer_min_speed`` (the steer applied last held); for the flatness law any step but
+        ``FCS.ok`` (a bad measurement or reference, or the fallback below the hand-over
+        speed). True before the first step.
+    y2_shift : float
+        The path correction's shift of the y2 reference in the last step [kg m^2/s] (0
+        without the correction or before the first step).
+    correction_held : bool
+        The last step held the shift of the step before (a non-finite input of the
+        correction: ``e_y``, ``e_psi``, ``vx``, ...).
     """
 
     speed: IntelligentStatus | None
     lateral: IntelligentStatus | None
     flatness: FlatnessControlStatus | None
     steer_held: bool
+    y2_shift: float
+    correction_held: bool
 
 
 class FlatOutputController(_OwnLoopShell):
@@ -201,13 +212,18 @@ class FlatOutputController(_OwnLoopShell):
 
         A bumpless start (model-free): until its estimator's window is full (the first
         ``window - 1`` steps, 49 ms at the default settings) each loop gives the
-        :meth:`reset`'s ``torque0`` and ``steer0``. A step whose ``vx``, ``vy`` or ``r`` is not
-        finite holds the outputs applied last (the window keeps its time base; the flatness
-        law holds its last outputs); a non-finite ``e_y`` or ``e_psi`` leaves out the path
-        correction for that step (its integral holds). Below its hand-over speed the
-        flatness law hands over to its fallback (steer held, P on the speed;
-        :class:`~flatfree.controllers.flatness_control.FlatnessControlParams`). The steer
-        returned is within ``actuators.max_steer``.
+        :meth:`reset`'s ``torque0`` and ``steer0``; the flatness law has no window and
+        applies its law from the first step. Lost samples: a non-finite ``vy`` or ``r`` holds
+        the steer applied last (the window keeps its time base), a non-finite ``vx`` the
+        model-free torque; the flatness law holds both outputs on any of the three. A
+        non-finite ``e_y``, ``e_psi``, ``vx``, ``vx_ref``, ``y2_per_r``, ``r_kin`` or lateral
+        reference holds the path correction's last shift of the y2 reference (its integral
+        holds too; ``status.correction_held``). At a standstill: the model-free design holds
+        the steer below ``settings.steer_min_speed`` (1 m/s), the flatness law hands over
+        below its hand-over speed, 0 m/s and reversing included, to its fallback (steer
+        held, P on the speed;
+        :class:`~flatfree.controllers.flatness_control.FlatnessControlParams`). The torque
+        and the steer returned are within the actuators' ranges.
 
         Conventions (ISO 8855): body axes at the CoG, x forward, y left, z up; the yaw rate,
         the steer and ``e_y`` positive to the left; the torque is the sum at the wheels, > 0
@@ -226,15 +242,15 @@ class FlatOutputController(_OwnLoopShell):
             Reference of y2 = lf m vy - Iz r [kg m^2/s] and its time derivative
             [kg m^2/s^2], from the 3DoF model along the path (module docstring; the
             flatness law's with its own, scaled, design model).
-        y2_ref_ddot : float
+        y2_ref_ddot : float, optional
             Its second derivative [kg m^2/s^3]: the flatness law's feedforward, required
             with :class:`FlatnessSettings` (``ValueError`` when left out), not read by the
             model-free design (nu = 1).
-        e_y, e_psi : float
+        e_y, e_psi : float, optional
             Measured lateral deviation from the path [m] and heading error (yaw minus the
             path's heading) [rad]. Required while ``settings.path_correction`` is on
             (``ValueError`` naming them when left out; NaN for a lost sample), not read
-            when it is off.
+            (but checked) when it is off.
         e_y_ref, e_y_ref_dot : float
             Lateral-deviation reference and its derivative (0: follow the path).
         r_kin : float
@@ -242,7 +258,12 @@ class FlatOutputController(_OwnLoopShell):
             (``sideslip_feedforward``; 0 when unknown: a little more lateral error).
         y2_per_r : float, optional
             The correction's d y2 / d r [kg m^2/s per rad/s]; ``None``: the design model's
-            steady ratio at ``vx_ref``.
+            steady ratio at ``vx_ref`` (:func:`~flatfree.controllers.vehicle.y2_per_r`,
+            ``lf m lr - Iz - (lf m vx)^2 / (Cr L)``: negative above the design model's
+            singular speed, :func:`flatfree.controllers.flatness.singular_speed`, where it
+            passes through 0 and the correction vanishes; a car with a yaw index
+            ``Iz / (m lf lr)`` below 1 has one, the dallara_av21 at 10.8 m/s, the peugeot406 at
+            0.58 m/s). A value of the wrong sign turns the correction away from the path.
         applied_torque, applied_steer : float, optional
             What the actuators applied over the last period, if known; ``None`` or a
             non-finite value: the previous command through the model of ``actuators``.
@@ -272,6 +293,10 @@ class FlatOutputController(_OwnLoopShell):
             if not isinstance(y2_ref_ddot, float):
                 y2_ref_ddot = real("y2_ref_ddot", y2_ref_ddot, "kg m^2/s^3")
             c[_C_Y2DD] = y2_ref_ddot
+        if e_y is not None and not isinstance(e_y, float):
+            e_y = real("e_y", e_y, "m")
+        if e_psi is not None and not isinstance(e_psi, float):
+            e_psi = real("e_psi", e_psi, "rad")
         if self._settings.path_correction:
             if e_y is None or e_psi is None:
                 missing = " and ".join(k for k, v in (("e_y", e_y), ("e_psi", e_psi))
@@ -280,8 +305,6 @@ class FlatOutputController(_OwnLoopShell):
                     f"{missing} = None: required with settings.path_correction = True (the "
                     "outer loop steers back to the path from them; NaN for a lost sample), "
                     "or use MfcFlatSettings(path_correction=False), the paper's design")
-            e_y = e_y if isinstance(e_y, float) else real("e_y", e_y, "m")
-            e_psi = e_psi if isinstance(e_psi, float) else real("e_psi", e_psi, "rad")
             if not isinstance(e_y_ref, float):
                 e_y_ref = real("e_y_ref", e_y_ref, "m")
             if not isinstance(e_y_ref_dot, float):
@@ -310,19 +333,25 @@ class FlatOutputController(_OwnLoopShell):
         return self._step_kernel(vx, a_tw, a_delta, lambda: dict(
             vx=vx, vy=vy, r=r, vx_ref=vx_ref, y2_ref=y2_ref, y2_ref_dot=y2_ref_dot,
             ax_ref=ax_ref, y2_ref_ddot=y2_ref_ddot, e_y=e_y, e_psi=e_psi, e_y_ref=e_y_ref,
-            e_y_ref_dot=e_y_ref_dot, r_kin=r_kin, y2_per_r=y2_per_r, applied_torque=applied_torque,
-            applied_steer=applied_steer))
+            e_y_ref_dot=e_y_ref_dot, r_kin=r_kin, y2_per_r=y2_per_r,
+            applied_torque=applied_torque, applied_steer=applied_steer))
 
     @property
     def status(self) -> FlatOutputStatus:
         """The loops' counters, flags and estimates after the last step
         (:class:`FlatOutputStatus`)."""
         z = self._arrays
+        shift = float(z.coef[_OUTER_SHIFT])
+        held = bool(z.coef[_OUTER_HELD])
         if self._flatness:
             law = flatness_status(z.s_lon)
             return FlatOutputStatus(speed=None, lateral=None, flatness=law,
-                                    steer_held=law.code != 0)
+                                    steer_held=law.code != 0 or z.s_lon[int(FST.LAW)] == 0.0,
+                                    y2_shift=shift, correction_held=held)
+        # (False before a step: NaN)
+        below = self._vx_prev < self._settings.steer_min_speed
         return FlatOutputStatus(
             speed=intelligent_status(z.p_lon, z.s_lon),
             lateral=intelligent_status(z.p_lat, z.s_lat), flatness=None,
-            steer_held=not intelligent_law_ran(z.p_lat, z.s_lat))
+            steer_held=below or not intelligent_law_ran(z.p_lat, z.s_lat), y2_shift=shift,
+            correction_held=held)

@@ -67,9 +67,11 @@ m/s for the dallara_av21 preset). This controller never evaluates B near it:
   speed reaches ``v_handover (1 + resume_hysteresis)``, with the integrators reset to zero.
 * If B refuses anyway (a front wheel acceleration near ``Cf R / J_f``; the singular band cannot
   be reached above ``v_handover`` since ``safe_margin > MAP_MARGIN``) the same fallback is used
-  (status :attr:`FCS.map_refused`). A non-finite or non-positive measured speed, or a non-finite
-  reference value, holds the previous output (:attr:`FCS.bad_measurement`,
-  :attr:`FCS.bad_reference`). No path divides by ~0 or returns NaN.
+  (status :attr:`FCS.map_refused`). A non-finite measurement or reference value holds the
+  previous output (:attr:`FCS.bad_measurement`, :attr:`FCS.bad_reference`); a standstill or
+  reversing speed (``vx <= 0``) is below the hand-over speed like any other (the fallback's P
+  on speed pulls away; it was held as a bad measurement, so a car stopped at 0 m/s never
+  moved). No path divides by ~0 or returns NaN.
 
 Anti-windup (input saturation is the actuators' job)
 ----------------------------------------------------
@@ -185,7 +187,7 @@ class FCS(enum.IntEnum):
 
     ok = 0  # the flatness law computed the output
     handover = 1  # measured vx below the hand-over speed: fallback (steer held, P on speed)
-    bad_measurement = 2  # non-finite measurement or vx <= 0: previous output held
+    bad_measurement = 2  # non-finite measurement: previous output held
     bad_reference = 3  # non-finite reference value or dt: previous output held
     map_refused = 4  # B refused (FlatStatus != ok): fallback as for handover
 
@@ -865,7 +867,7 @@ def flatness_step(p, s, vx, vy, r, y1r, y1dr, y2r, y2dr, y2ddr, dt, tw_applied, 
         s[_NH] += 1.0
         return s[_TW], s[_DE]
     # ---- measurement ----
-    if not (math.isfinite(vx) and math.isfinite(vy) and math.isfinite(r) and vx > 0.0):
+    if not (math.isfinite(vx) and math.isfinite(vy) and math.isfinite(r)):
         s[_ST] = _BADM
         s[_NH] += 1.0
         return s[_TW], s[_DE]

@@ -680,6 +680,12 @@ class MfcFlatSettings(_SampleCountSettings):
         Natural frequency of the outer loop [rad/s] (:data:`MFC_FLAT_OUTER_WN`).
     outer_zeta, sideslip_feedforward, outer_integral
         As :class:`FlatnessSettings`.
+    steer_min_speed : float
+        Below this measured speed [m/s] the steer applied last is held (default 1): at a
+        standstill the steer does not move y2, and the iPI wound the wheels to their lock
+        (0.6 rad after 60 s at 0 m/s with a 0.5 m lateral deviation; below the singular speed,
+        0.58 m/s for the peugeot406, the correction's d y2 / d r also changes sign). 0: no
+        hold.
 
     Tuning of the lateral loop (the paper gives no values; benchmarks/README.md "Closed
     loop" has the sweeps). Sign: negative (module docstring); a positive alpha_lat left
@@ -719,11 +725,13 @@ class MfcFlatSettings(_SampleCountSettings):
     outer_zeta: float = OUTER_ZETA
     sideslip_feedforward: bool = True
     outer_integral: bool = True
+    steer_min_speed: float = 1.0
 
     def __post_init__(self) -> None:
         _check_schedule(self.schedule)
         _check_sample_counts(self)
         _check_outer(self)
+        nonnegative("steer_min_speed", self.steer_min_speed, "m/s")
         positive("alpha_lon", self.alpha_lon, "(m/s^2)/(N m)")
         finite("alpha_lat", self.alpha_lat, "(kg m^2/s^2)/rad")
         if self.alpha_lat == 0.0:
@@ -798,6 +806,14 @@ class FlatnessSettings:
         positive("cf_scale", self.cf_scale, "-")
         positive("cr_scale", self.cr_scale, "-")
 
+    def for_period(self, dt: float, *, from_dt: float = TUNED_PERIOD_S) -> Self:
+        """These settings at control period ``dt``: the same (the flatness law counts no
+        samples: its poles are in 1/s), as the model-free settings' ``for_period`` is called
+        in code that serves every design."""
+        positive("dt", dt, "s")
+        positive("from_dt", from_dt, "s")
+        return self
+
 
 _SETTINGS = {"mfc-natural": MfcNaturalSettings, "mfc-flat": MfcFlatSettings,
              "flatness": FlatnessSettings}
@@ -851,6 +867,9 @@ class VehicleControllerArrays:
         """Fresh controller states."""
         if self.coef.shape[0] > 13:
             self.coef[13] = 0.0  # the path correction's integrator
+        if self.kind in (KIND.FLATNESS, KIND.MFC_FLAT) and self.coef.shape[0] > _OUTER_HELD:
+            self.coef[_OUTER_SHIFT] = 0.0  # no correction held
+            self.coef[_OUTER_HELD] = 0.0
         if self.coef.shape[0] > _IMU_STARTED:
             self.coef[_IMU_STARTED] = 0.0  # the imu estimator restarts from the next sample
         if self.coef.shape[0] > _IMU_B:
@@ -881,7 +900,8 @@ def build_flatness(settings: FlatnessSettings, *, dt: float,
     p = fp.to_array()
     return VehicleControllerArrays(int(KIND.FLATNESS), p, flat_make_state(p), np.zeros(1),
                                    np.zeros(1), np.array([0.0, 0.0, dt, 0.0, 0.0, 0.0, 0.0,
-                                                          *_outer_coef(settings, dt)]),
+                                                          *_outer_coef(settings, dt),
+                                                          0.0, 0.0, 0.0]),
                                    np.zeros(1), np.zeros(1), np.zeros(1))
 
 
@@ -957,7 +977,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                                 kp=s2.kp_lat, ki=s2.ki_lat, **steer_lim)
         kind = KIND.MFC_FLAT
         coef = np.array([float(s2.denoise_lon > 0), float(s2.denoise_lat > 0), lf * mass, iz,
-                         0.0, 0.0, 0.0, *_outer_coef(s2, dt)])
+                         0.0, 0.0, 0.0, *_outer_coef(s2, dt), 0.0, 0.0, s2.steer_min_speed])
     else:
         raise ValueError(f"controller = {controller!r}: expected 'mfc-flat' or 'mfc-natural'")
     p_lon = lon.to_array()
@@ -973,6 +993,10 @@ _IMU_ON, _IMU_PHI, _IMU_L1, _IMU_L2 = 18, 19, 20, 21
 _IMU_A, _IMU_U, _IMU_E, _IMU_ED, _IMU_STARTED = 22, 23, 24, 25, 26
 _IMU_L3, _IMU_B = 27, 28  # bias gain, bias estimate (kept across restarts: the bias persists)
 _STEER_MIN_V = 29  # MfcNaturalSettings.steer_min_speed [m/s]
+# the flat-output designs (flatness, mfc-flat), after the outer correction's coef[7:14]: the
+# correction's last y2 shift [kg m^2/s] and whether the last step held it (a non-finite
+# input), then MfcFlatSettings.steer_min_speed [m/s] (mfc-flat)
+_OUTER_SHIFT, _OUTER_HELD, _FLAT_STEER_MIN_V = 14, 15, 16
 # MfcNaturalSettings.curvature_term: on; the term Vx^2 kappa / alpha [rad] of the period running
 _CURV_ON, _CURV_FF = 30, 31
 _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
@@ -1083,8 +1107,18 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         dr = path_correction(meas[3], meas[4], e_line, e_psi_line, coef[8], zeta, coef[13])
         if coef[10] != 0.0:
             dr += cref[10]
-        if math.isfinite(dr) and math.isfinite(cref[9]):
-            y2r += cref[9] * dr
+        shift = cref[9] * dr
+        held = coef.shape[0] > _OUTER_HELD
+        if math.isfinite(shift) and math.isfinite(meas[3]):
+            y2r += shift
+            if held:
+                coef[_OUTER_SHIFT] = shift
+                coef[_OUTER_HELD] = 0.0
+        elif held:
+            # a lost pose, speed or reference sample: the last shift held (left out, the
+            # y2 reference jumped back to the uncorrected one for that period: a steer spike)
+            y2r += coef[_OUTER_SHIFT]
+            coef[_OUTER_HELD] = 1.0
     if kind == 0:  # flatness-based (paper Section 2.3), arrays in the lon slots
         return flatness_step(p_lon, s_lon, meas[3], meas[4], meas[5], cref[0], cref[1],
                              y2r, cref[3], cref[4], coef[2], tw_applied, delta_applied)
@@ -1165,6 +1199,11 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # steer applied last; the estimators are told so (their window keeps its time base)
         delta = u_prev
         intelligent_set_applied(p_lat, s_lat, delta - ff)
+    elif kind == 1 and coef.shape[0] > _FLAT_STEER_MIN_V and meas[3] < coef[_FLAT_STEER_MIN_V]:
+        # MfcFlatSettings.steer_min_speed: at a standstill the steer does not move y2 (and the
+        # correction's d y2 / d r changes sign below the singular speed): hold it
+        delta = u_prev
+        intelligent_set_applied(p_lat, s_lat, delta)
     return tw, delta
 
 
@@ -1265,21 +1304,28 @@ class _OwnLoopShell:
 
     def _step_kernel(self, vx: float, a_tw: float, a_delta: float, inputs) -> tuple[float, float]:
         """:func:`vehicle_step` on the measurement and reference arrays filled by the caller;
-        the steer clipped to the actuators' range; a non-finite command resets and raises
-        (``inputs()`` gives the step's arguments for the message)."""
+        a non-finite command resets and raises (``inputs()`` gives the step's arguments for
+        the message); the steer and the torque clipped to the actuators' ranges."""
         z = self._arrays
         tw, delta = vehicle_step(z.kind, z.p_lon, z.s_lon, z.p_lat, z.s_lat, z.coef, z.f_lon,
                                  z.f_lat, z.f_yaw, self._meas, self._ref, a_tw, a_delta)
         # a held step (a standstill, a NaN input) returns the steer applied last, which the
         # caller may report beyond the range (applied_steer); in the engine, and for the
-        # law's own outputs, it is within the range already
-        lim = self._act.max_steer
+        # model-free laws' own outputs, it is within the range already. The flatness law knows
+        # no limits (its anti-windup sees what was applied): its torque reached -47.7 kN m
+        # against a 6 kN m brake
+        if not (math.isfinite(tw) and math.isfinite(delta)):  # overflowed (Raises)
+            self._overflowed(tw, delta, inputs())
+        a = self._act
+        lim = a.max_steer
         if delta > lim:
             delta = lim
         elif delta < -lim:
             delta = -lim
-        if not (math.isfinite(tw) and math.isfinite(delta)):  # overflowed (Raises)
-            self._overflowed(tw, delta, inputs())
+        if tw > a.max_drive_torque:
+            tw = a.max_drive_torque
+        elif tw < -a.max_brake_torque:
+            tw = -a.max_brake_torque
         prev = self._prev
         prev[0] = tw
         prev[1] = delta
