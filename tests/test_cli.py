@@ -509,6 +509,11 @@ def test_controller_option_names_and_describes_the_controller_run(runner, tmp_pa
     assert half.name == "paper-flatness"
     assert half.description == (named_scenario("paper-flatness").description
                                 + "; its model's cf_scale 0.5 (--cf-scale)")
+    # scales of 1 are the nominal model: the mismatch undone is paper-flatness (it kept the
+    # name paper-mismatch)
+    undone = build_scenario("paper-mismatch", cf_scale=1.0, cr_scale=1.0)
+    assert (undone.name, undone.description) == ("paper-flatness", named_scenario(
+        "paper-flatness").description)
 
 
 def test_vehicle_option_takes_the_cars_natural_settings():

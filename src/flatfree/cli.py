@@ -541,7 +541,7 @@ def _renamed_for_controller(sc, base, *, named: bool, vehicle: str | None,
                 other = mod.named_scenario(name, vehicle=vehicle)
             except ValueError:  # (the recorded scenarios take no vehicle)
                 continue
-            if all(getattr(other, k) == getattr(sc, k) for k in keys):
+            if all(_same_field(other, sc, k) for k in keys):
                 return sc.with_(name=other.name, description=other.description)
     parts = []
     if sc.controller != base.controller:
@@ -552,6 +552,21 @@ def _renamed_for_controller(sc, base, *, named: bool, vehicle: str | None,
                      + " (" + ", ".join("--" + k.replace("_", "-") for k in scales) + ")")
     what = "; ".join(parts)
     return sc.with_(description=f"{base.description}; {what}" if base.description else what)
+
+
+def _same_field(a, b, key: str) -> bool:
+    """Whether two scenarios agree on ``key``; controller settings that resolve to the same
+    settings are the same (``cf_scale = 1`` is the default: ``paper-mismatch --cf-scale 1
+    --cr-scale 1`` is ``paper-flatness``)."""
+    if key != "controller_settings" or a.controller != b.controller:
+        return getattr(a, key) == getattr(b, key)
+    from flatfree.controllers.vehicle import settings_from_mapping
+
+    try:
+        return (settings_from_mapping(a.controller, a.controller_settings)
+                == settings_from_mapping(b.controller, b.controller_settings))
+    except ValueError:  # (checked later, where the error names the setting)
+        return a.controller_settings == b.controller_settings
 
 
 def _load_base(spec: str | None, recording: str | None, vehicle: str | None):
