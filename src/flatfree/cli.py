@@ -321,7 +321,10 @@ window_lat = 185
 denoise_lat = 84
 yaw_damping = 0.35
 denoise_yaw = 62
-# flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal)
+# flatness:    cf_scale = 0.3, cr_scale = 0.3 (the model's cornering stiffness, x nominal),
+#              path_correction = false (the paper's design exactly: it drifts off the path)
+# mfc-flat:    alpha_lon, kp_lon, ki_lon, window_lon, alpha_lat, kp_lat, ki_lat, window_lat,
+#              path_correction, outer_wn, steer_min_speed (m/s; default 1.0)
 # mfc-natural: alpha_lon, kp_lon, window_lon, alpha_lat, wn_lat, zeta_lat, window_lat,
 #              wn_lat_speed, wn_lat_ratio (speed schedule), yaw_damping,
 #              curvature_term (-Vx^2 kappa out of F), denoise_lat,
