@@ -220,8 +220,9 @@ def test_at_a_standstill_the_steer_is_held_and_the_flatness_law_pulls_away():
     assert de == 0.01 and c.status.steer_held
     free = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
                                 settings=MfcFlatSettings(steer_min_speed=0.0))
-    for _ in range(5000):
-        _, de_free = free.step(vx=0.0, vx_ref=0.0, e_y=0.5, **k)
+    with pytest.warns(UserWarning, match="singular speed 0.578 m/s"):  # (0 m/s is within it)
+        for _ in range(5000):
+            _, de_free = free.step(vx=0.0, vx_ref=0.0, e_y=0.5, **k)
     assert abs(de_free) > 0.01  # without the hold it winds up: 0.0145 rad in 5 s, measured
     law = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
                                settings=FlatnessSettings())
@@ -346,3 +347,36 @@ def test_own_loop_flat_example_runs_and_the_correction_holds_the_path():
     assert corrected["max_lateral_m"] < 1.02
     assert exact["max_lateral_m"] > 2.0 * corrected["max_lateral_m"]
     assert flatness["max_lateral_m"] < 0.138
+
+
+def test_near_the_singular_speed_the_model_free_design_warns_once():
+    """The dallara_av21's design model is singular at 10.8 m/s (yaw index < 1): the steer
+    loses its effect on y2 there. The model-free design warns once, at the first measured
+    speed within 50 % of it; the peugeot406's (0.58 m/s) is under the standstill hold."""
+    import warnings
+
+    from flatfree.controllers.vehicle import FlatnessSettings
+
+    car = load_vehicle("dallara_av21")
+    model = Bicycle3DoFParams.from_vehicle(car)
+    act = ActuatorParams.from_vehicle(car)
+    k = dict(vy=0.0, r=0.0, vx_ref=20.0, y2_ref=0.0, y2_ref_dot=0.0, y2_ref_ddot=0.0,
+             e_y=0.0, e_psi=0.0)
+    c = FlatOutputController(dt=0.001, actuators=act, model=model,
+                             settings=MfcFlatSettings(alpha_lat=-1e5))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        c.step(vx=17.0, **k)  # 1.57 x 10.8 m/s: not yet
+    with pytest.warns(UserWarning, match=r"vx = 15 m/s is within 50% of the design model's "
+                                         r"singular speed 10.8 m/s") as rec:
+        c.step(vx=15.0, **k)
+        c.step(vx=12.0, **k)
+    assert len(rec) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        law = FlatOutputController(dt=0.001, actuators=act, model=model,
+                                   settings=FlatnessSettings())
+        law.step(vx=12.0, **k)  # the flatness law hands over there: no warning
+        p406 = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL)
+        for v in (5.0, 0.8, 0.5, 0.0):
+            p406.step(vx=v, **k)

@@ -25,7 +25,9 @@ import math
 from dataclasses import dataclass
 
 from flatfree._validate import real
+from flatfree._warn import warn
 from flatfree.actuators import ActuatorParams
+from flatfree.controllers.flatness import SAFE_MARGIN, singular_speed
 from flatfree.controllers.flatness_control import FST, FlatnessControlStatus, flatness_status
 from flatfree.controllers.intelligent import (
     IntelligentStatus,
@@ -119,7 +121,11 @@ class FlatOutputController(_OwnLoopShell):
         ``cf_scale``, ``cr_scale``. The path correction converts its yaw-rate correction to
         y2 with that model's steady ratio d y2 / d r
         (:func:`~flatfree.controllers.vehicle.y2_per_r`), unless :meth:`step` is given
-        ``y2_per_r``.
+        ``y2_per_r``. A model with a yaw index ``Iz / (m lf lr)`` below 1 has a singular speed
+        (:func:`flatfree.controllers.flatness.singular_speed`; the dallara_av21 10.8 m/s)
+        where the steer loses its effect on y2: the model-free design warns once at the first
+        measured speed within 50 % of it (above ``steer_min_speed``), the flatness law hands
+        over to its fallback there.
     settings : MfcFlatSettings or FlatnessSettings, optional
         Default ``MfcFlatSettings()`` (the model-free design as the engine's ``paper-mfc-flat``
         runs it at 1 kHz; ``alpha_lat`` scales with the car's ``-lf Cf`` times the window,
@@ -153,7 +159,7 @@ class FlatOutputController(_OwnLoopShell):
     correction, the sign of ``alpha_lat``).
     """
 
-    __slots__ = ("_model", "_lfm", "_g0", "_crl", "_flatness")
+    __slots__ = ("_model", "_lfm", "_g0", "_crl", "_flatness", "_v_warn", "_warned")
 
     _SETTINGS = (MfcFlatSettings, FlatnessSettings)
 
@@ -170,6 +176,12 @@ class FlatOutputController(_OwnLoopShell):
         self._lfm = model.lf * model.m
         self._g0 = self._lfm * model.lr - model.iz
         self._crl = cr * (model.lf + model.lr)
+        # the model-free design near the design model's singular speed (the flatness law hands
+        # over there): warned once, at the first measured speed within SAFE_MARGIN of it
+        v_star = singular_speed(model)
+        self._v_warn = (0.0 if v_star is None or self._flatness
+                        else (1.0 + SAFE_MARGIN) * v_star)
+        self._warned = False
         super().__init__(dt=dt, actuators=actuators, settings=settings)
 
     @property
@@ -319,6 +331,8 @@ class FlatOutputController(_OwnLoopShell):
             c[_C_EYD] = e_y_ref_dot
             c[_C_G] = y2_per_r
             c[_C_RKIN] = r_kin
+        if vx < self._v_warn and not self._warned and vx >= self._settings.steer_min_speed:
+            self._warn_singular(vx)
         a_tw, a_delta = self._applied(vx, applied_torque, applied_steer)
         m = self._meas
         m[_M_VX] = vx
@@ -335,6 +349,16 @@ class FlatOutputController(_OwnLoopShell):
             ax_ref=ax_ref, y2_ref_ddot=y2_ref_ddot, e_y=e_y, e_psi=e_psi, e_y_ref=e_y_ref,
             e_y_ref_dot=e_y_ref_dot, r_kin=r_kin, y2_per_r=y2_per_r,
             applied_torque=applied_torque, applied_steer=applied_steer))
+
+    def _warn_singular(self, vx: float) -> None:
+        m = self._model
+        self._warned = True
+        warn(f"FlatOutputController (mfc-flat): vx = {vx:.3g} m/s is within "
+             f"{SAFE_MARGIN:.0%} of the design model's singular speed "
+             f"{self._v_warn / (1.0 + SAFE_MARGIN):.3g} m/s (yaw index Iz / (m lf lr) = "
+             f"{m.iz / (m.m * m.lf * m.lr):.3f} < 1): there the steer has little effect on "
+             "y2 = lf m vy - Iz r, and the opposite one below it; the lateral loop fails near "
+             "that speed (the flatness law hands over to its fallback there)", UserWarning)
 
     @property
     def status(self) -> FlatOutputStatus:
