@@ -301,7 +301,8 @@ def test_a_state_that_goes_non_finite_ends_the_run_with_that_status():
         assert tr.status is Status.NON_FINITE, duration
         assert tr.status_time == pytest.approx(0.001, abs=1e-12)
         assert len(tr) == 1 and _finite(tr)
-        m = compute_metrics(tr, startup_s=0.0)
+        with pytest.warns(RuntimeWarning, match="one sample only"):  # (no rate of one sample)
+            m = compute_metrics(tr, startup_s=0.0)
         assert m.status == "non_finite"
 
 
@@ -1371,3 +1372,26 @@ def test_a_lost_position_holds_the_flat_output_designs_path_correction(name, old
                                            duration_s=0.05),)))
     assert lost.status is Status.COMPLETED
     assert np.max(np.abs(lost["e_y"] - base["e_y"])) < bound_m < old_m
+
+
+def test_a_yaw_inertia_too_small_for_the_reference_sideslip_is_named_not_a_hang():
+    """vehicle_overrides iz = 1e-6 kg m^2 hung prepare (the 3DoF sideslip dynamics along the
+    reference asked ~3e12 RK4 sub-steps): a ValueError naming iz; 1 kg m^2 (3.3e6 sub-steps)
+    still prepares."""
+    from flatfree.scenarios import named_scenario
+    from flatfree.simulation import prepare
+
+    sc = named_scenario("paper", duration_s=0.01)
+    with pytest.raises(ValueError, match=r"^iz = 1e-06 kg m\^2: .* RK4 sub-steps"):
+        prepare(sc.with_(vehicle_overrides={"iz": 1e-6}))
+    assert prepare(sc.with_(vehicle_overrides={"iz": 1.0})).n_steps == 10
+
+
+def test_the_meta_says_how_the_run_was_sampled():
+    """The metrics' rates depend on the log's period: the trajectory's meta records the
+    plant, control and log periods and the scenario's start-up interval, so that results
+    compared later can be checked for like with like."""
+    sc = _scenario(timing=Timing(duration_s=0.5, log_dt_s=0.02, startup_s=0.25))
+    meta = simulate(sc).meta
+    assert (meta["plant_dt_s"], meta["control_dt_s"], meta["log_dt_s"], meta["startup_s"]) == (
+        0.001, 0.001, 0.02, 0.25)

@@ -558,3 +558,10 @@ def test_make_reference_refuses_bad_arguments_naming_them(kwargs, message):
     args = {"track": T.circle_track(40.0), "speed": 10.0, **kwargs}
     with pytest.raises(ValueError, match=message):
         T.make_reference(args.pop("track"), args.pop("speed"), **args)
+
+
+def test_in_asks_for_a_signal_name():
+    """``"x" in ref`` raised KeyError: no signal 0 (Python's fallback iterated ref[0], ...)."""
+    ref = T.make_reference(T.load_track("IMS"), dt=0.02)
+    assert "vx" in ref and "kappa" in ref and "nope" not in ref and 0 not in ref
+    assert all(n in ref for n in ref.names)

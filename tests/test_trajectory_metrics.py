@@ -127,11 +127,18 @@ def test_metrics_are_nan_when_no_sample_follows_the_startup_interval():
         e = compute_metrics(empty, startup_s=0.0)
     assert [name for name in errors if not math.isnan(getattr(e, name))] == []
     assert e.duration_s == 0.0
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # one sample left: no warning
+    # one sample left: the errors of it, the rates NaN, said (they were NaN silently)
+    with pytest.warns(RuntimeWarning, match=r"one sample only \(t = 2 s\).*rates.*NaN"):
         last = compute_metrics(_traj(), startup_s=2.0)  # only the sample t = 2 s: cos(20 pi) = 1
     assert last.speed_error_rms_mps == pytest.approx(0.3, rel=1e-12)
     assert last.torque_rms_nm == 300.0
+    assert math.isnan(last.steer_rate_rms_radps) and math.isnan(last.torque_rate_rms_nmps)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # two samples: the rates are numbers, no warning
+        two = compute_metrics(_traj(), startup_s=1.999)
+    assert two.steer_rate_rms_radps == pytest.approx(0.1, rel=1e-9)
+    with pytest.raises(ValueError, match=r"^traj = \{'a': 1\}: expected a flatfree.Trajectory"):
+        compute_metrics({"a": 1})
 
 
 def _startup_warning(tr, startup_s):
@@ -173,10 +180,11 @@ def test_a_log_within_the_startup_interval_warns_with_its_numbers():
                    "pass a shorter startup_s")
 
 
-@pytest.mark.parametrize("startup_s", [0.0, 1.0, 1.999, 2.0])
+@pytest.mark.parametrize("startup_s", [0.0, 1.0, 1.999])
 def test_no_startup_warning_when_a_sample_is_left(startup_s):
-    """Warnings as errors: a run with samples after the start-up interval (the last one
-    included, t >= startup_s) computes without a warning; no_sample_after_startup agrees."""
+    """Warnings as errors: a run with two samples or more after the start-up interval (the
+    last one included, t >= startup_s) computes without a warning; no_sample_after_startup
+    agrees (one sample left warns about the rates: the test above)."""
     tr = _traj()
     assert not no_sample_after_startup(tr, startup_s)
     assert no_sample_after_startup(tr, 2.0 + 1e-9)
@@ -266,3 +274,19 @@ def test_wrap_angle_refuses_what_is_not_real_numbers_by_name(angle, msg):
     # float64 reads "1.0" and True as numbers and a None as a silent NaN: refused, by name
     with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
         wrap_angle(angle)
+
+
+def test_a_trajectory_refuses_non_finite_times_and_a_status_time_not_a_number():
+    """status_time = "x" was accepted (repr then failed), NaN printed "at t=nan s"; an
+    infinite time was accepted and a NaN one called "not increasing"."""
+    from flatfree.trajectory import Status
+
+    for bad in ("x", math.nan, math.inf, None):
+        with pytest.raises(ValueError, match="status_time"):
+            Trajectory(time=[0.0], signals={}, units={}, status=Status.LEFT_TRACK,
+                       status_time=bad)
+    ok = Trajectory(time=[0.0], signals={}, units={}, status=Status.LEFT_TRACK, status_time=1)
+    assert ok.status_time == 1.0 and "at t=1.000 s" in repr(ok)
+    for t, i in (([0.0, math.inf], 1), ([math.nan, 1.0], 0)):
+        with pytest.raises(ValueError, match=rf"^time\[{i}\] = .*: must be finite"):
+            Trajectory(time=t, signals={}, units={})

@@ -3,7 +3,10 @@
 Definitions (the same for every controller, so that comparisons are fair):
 
 - **lateral error** [m]: the true (not measured) signed distance of the CoG from the reference
-  path, left positive (signal ``lateral_error``).
+  path, left positive (signal ``lateral_error``). The reference path is the path offset by the
+  reference's lateral deviation ``e_y_ref(s)`` (``reference.lateral_offset_m``, a merge into
+  the path): ``lateral_error = e_y - e_y_ref``, where the signal ``e_y`` is the distance from
+  the track's own line.
 - **yaw error** [rad, reported in deg]: the vehicle's yaw minus the reference yaw, wrapped to
   (-pi, pi] (signal ``yaw_error``). The reference yaw is the recorded yaw for a recorded
   reference (the recording's own heading column, unwrapped; the LVMS recording's follows its
@@ -126,8 +129,19 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
     RuntimeWarning
         When no sample lies after the start-up interval (:func:`no_sample_after_startup`: the
         log ends within it, or is empty), naming the log's last time and ``startup_s``: every
-        error metric is then NaN.
+        error metric is then NaN. When one sample only lies after it: the rates (a difference
+        of two samples) are then NaN.
+
+    Notes
+    -----
+    A run's log holds the samples at ``k log_dt_s`` before its end: the last of a run of
+    ``duration_s`` is at ``duration_s - log_dt_s``, and a run that stops (left the track,
+    non-finite state) at ``status_time`` has its last sample at or before it, not the step
+    that crossed.
     """
+    if not isinstance(traj, Trajectory):
+        raise ValueError(f"traj = {traj!r:.60}: expected a flatfree.Trajectory "
+                         "(simulate's result, or Trajectory.from_parquet / from_csv)")
     startup_s = nonnegative("startup_s", startup_s, "s")
     for name in ("lateral_error", "yaw_error", "vx", "vx_ref", "steer", "torque"):
         if name not in traj:
@@ -146,6 +160,11 @@ def compute_metrics(traj: Trajectory, *, startup_s: float = DEFAULT_STARTUP_S) -
              f"factor: {end}; simulate longer or pass a shorter startup_s", RuntimeWarning)
     t0 = traj.time[0] if len(traj) else 0.0
     part = traj.after(t0 + startup_s)
+    if len(part) == 1:
+        warn(f"compute_metrics: one sample only (t = {part.time[0]:g} s) after the start-up "
+             f"interval of startup_s = {startup_s:g} s: the steer and torque rates, "
+             "differences of two samples, are NaN; simulate longer or pass a shorter "
+             "startup_s", RuntimeWarning)
     ey = part["lateral_error"]
     epsi = np.degrees(wrap_angle(part["yaw_error"]))
     ev = part["vx"] - part["vx_ref"]

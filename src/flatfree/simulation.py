@@ -1346,6 +1346,9 @@ def _simulate_prepared(prep: Prepared, controller: PythonController | None) -> T
         "scenario": sc.name, "controller": name, "vehicle": vehicle.name,
         "plant": sc.plant, "seed": sc.seed, "noise": sc.noise,
         "track": sc.reference.track or sc.reference.recording,
+        # how it was sampled (the metrics' rates depend on the log's period; metrics.py)
+        "plant_dt_s": timing.plant_dt_s, "control_dt_s": timing.control_dt_s,
+        "log_dt_s": timing.log_dt_s, "startup_s": timing.startup_s,
         "real_time_factor": sim_time / wall if wall > 0 else math.nan,
         "wall_time_s": wall,
         # time to compile the loop or load it from the cache, outside wall_time_s

@@ -99,6 +99,9 @@ class Trajectory:
         t = _float_array(self.time, adopt)
         if t.ndim != 1:
             raise ValueError(f"time has shape {t.shape}: expected a 1-D array")
+        if not np.all(np.isfinite(t)):
+            i = int(np.flatnonzero(~np.isfinite(t))[0])
+            raise ValueError(f"time[{i}] = {float(t[i])!r} s: must be finite")
         if t.size > 1 and not np.all(np.diff(t) > 0.0):
             i = int(np.flatnonzero(~(np.diff(t) > 0.0))[0])
             raise ValueError(f"time must be strictly increasing: time[{i + 1}] = "
@@ -122,6 +125,8 @@ class Trajectory:
                              "completed run")
         if self.status is not Status.COMPLETED and self.status_time is None:
             raise ValueError(f"status {self.status} needs the status_time at which it happened")
+        if self.status_time is not None:
+            object.__setattr__(self, "status_time", finite("status_time", self.status_time, "s"))
         object.__setattr__(self, "time", t)
         object.__setattr__(self, "signals", MappingProxyType(sig))
         object.__setattr__(self, "units", MappingProxyType(dict(self.units)))

@@ -167,6 +167,11 @@ class Reference:
             return self.extras[name]
         raise KeyError(f"no signal {name!r}; available: {', '.join(self.names)}")
 
+    def __contains__(self, name: object) -> bool:
+        """Whether ``name`` is one of :attr:`names` (``"vx" in ref``; without it Python tried
+        ``ref[0]``, ``ref[1]``, ... and raised ``KeyError: no signal 0``)."""
+        return name in _NAMES or name in self.extras
+
     @property
     def names(self) -> tuple[str, ...]:
         """All signal names."""
@@ -595,6 +600,7 @@ def _path_states(ref: Reference, cf: float, cr: float, m: float, iz: float, lf: 
     kap = ref["kappa"].copy()
     rk_dot = ref["r_dot"].copy()  # (V kappa)'
     low = v < V_LOW
+    _check_beta_path_substeps(t, v, low, iz, lr, cr * big_l)
     beta, beta_d, beta_dd = _integrate_beta_path(t, v, a, kap, rk_dot, m, iz, lf, lr, cr, low)
     cb = np.cos(beta)
     sb = np.sin(beta)
@@ -623,6 +629,30 @@ def _path_states(ref: Reference, cf: float, cr: float, m: float, iz: float, lf: 
     return LateralReference(t=t, vx=vx, ax=ax, vy=vy, vy_dot=vy_dot, r=r, r_dot=r_dot,
                             delta=delta, y1=vx.copy(), y1_dot=ax.copy(), y2=y2, y2_dot=y2_dot,
                             y2_ddot=y2_ddot, method="path")
+
+
+#: The most RK4 sub-steps :func:`_integrate_beta_path` may take (a lap of a bundled track takes
+#: one per sample, a few thousand to ~10^5; a yaw inertia of 1e-6 kg m^2 asked ~10^13 and
+#: the run hung in ``prepare``).
+MAX_BETA_SUBSTEPS = 10**7
+
+
+def _check_beta_path_substeps(t, v, low, iz, lr, lcr) -> None:
+    """``ValueError`` naming the yaw inertia when the sideslip dynamics are too fast to
+    integrate along the reference (:data:`MAX_BETA_SUBSTEPS`; the sub-step rule of
+    :func:`_integrate_beta_path`)."""
+    if t.size < 2:
+        return
+    step = ~(low[:-1] | low[1:])
+    vmin = np.minimum(v[:-1], v[1:])[step]
+    rate = lcr * lr / (iz * vmin) + math.sqrt(lcr / iz)
+    total = float(np.sum(np.maximum(1.0, np.ceil(np.diff(t)[step] * rate / 0.5))))
+    if total > max(MAX_BETA_SUBSTEPS, 50 * t.size):
+        raise ValueError(
+            f"iz = {iz!r} kg m^2: the 3DoF model's sideslip dynamics along the reference are "
+            f"that fast (up to {float(np.max(rate)):.3g} 1/s with Cr L = {lcr:.4g} N and lr = "
+            f"{lr:g} m) that integrating them needs {total:.3g} RK4 sub-steps: a yaw inertia "
+            "that small is not a car's (the peugeot406's is 2620 kg m^2)")
 
 
 def _y2_ddot_model(vx, ax, vy, vy_dot, r, r_dot, vxs, m, lf, lr, cr):
