@@ -59,3 +59,22 @@ def test_the_public_doors_refuse_bad_input_with_a_valueerror_naming_it():
     assert ref.path.name == "Norisring"
     with pytest.raises(ValueError, match=r"^sc = 'papr': expected a Scenario"):
         flatfree.simulate("papr")
+
+
+def test_the_public_modules_are_reached_from_the_package():
+    """``flatfree.scenarios.SCENARIO_NAMES`` after a bare ``import flatfree`` raised
+    AttributeError (suggesting 'Scenario'): the public subpackages and modules are imported on
+    first use, as the API's names are; the list is every public module of the package."""
+    import pathlib
+
+    root = pathlib.Path(flatfree.__file__).parent
+    public = {p.stem for p in root.glob("*.py") if not p.stem.startswith("_")} | {
+        p.parent.name for p in root.glob("*/__init__.py")}
+    assert flatfree._MODULES == public
+    code = ("import flatfree, sys; assert 'flatfree.scenarios' not in sys.modules; "
+            "print(len(flatfree.scenarios.SCENARIO_NAMES), flatfree.scenario.Fault.__name__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.split() == [str(len(flatfree.scenarios.SCENARIO_NAMES)), "Fault"]
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        flatfree.nope  # noqa: B018

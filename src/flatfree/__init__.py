@@ -72,7 +72,17 @@ _API = {
 __all__ = [*sorted(_API), "__version__"]  # noqa: PLE0604
 
 
+#: The public subpackages and modules, imported on first use too (``flatfree.scenarios.
+#: SCENARIO_NAMES`` without an ``import flatfree.scenarios`` first).
+_MODULES = frozenset({
+    "actuators", "cli", "controllers", "demo", "estimators", "metrics", "models", "plotting",
+    "report", "scenario", "scenarios", "sensors", "simulation", "tires", "tracks",
+    "trajectory", "units", "vehicles"})
+
+
 def __getattr__(name: str) -> Any:
+    if name in _MODULES:
+        return importlib.import_module(f"flatfree.{name}")  # (sets the attribute itself)
     try:
         module = _API[name]
     except KeyError:
