@@ -170,13 +170,9 @@ def _end_to_end(sc, tr) -> None:
     5 each): the reference, the flying-lap start speed, the whole prepare (and a process's
     first, the bundled track and car built again: the two alone), the sensor noise the lap
     draws (a block at a time, up to the block of its last step)."""
+    from flatfree.controllers.vehicle import unread_channels
     from flatfree.sensors import SENSOR_CHANNELS
-    from flatfree.simulation import (
-        _NOISE_BLOCK,
-        flying_lap_speed,
-        reference_of,
-        unread_channels,
-    )
+    from flatfree.simulation import _NOISE_BLOCK, flying_lap_speed, reference_of
     from flatfree.tracks import load_track
     from flatfree.tracks.loaders import _bundled_track
     from flatfree.vehicles.params import _preset

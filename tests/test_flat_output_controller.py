@@ -226,8 +226,9 @@ def test_at_a_standstill_the_steer_is_held_and_the_flatness_law_pulls_away():
     assert abs(de_free) > 0.01  # without the hold it winds up: 0.0145 rad in 5 s, measured
     law = FlatOutputController(dt=0.001, actuators=ACT, model=MODEL,
                                settings=FlatnessSettings())
-    tw, _ = law.step(vx=0.0, vx_ref=5.0, e_y=0.0, y2_ref_ddot=0.0, **k)
-    assert tw > 0.0 and law.status.flatness.handed_over and law.status.steer_held
+    for vx in (0.0, -3.0):  # reversing too (it raised AttributeError: steer_min_speed)
+        tw, _ = law.step(vx=vx, vx_ref=5.0, e_y=0.0, y2_ref_ddot=0.0, **k)
+        assert tw > 0.0 and law.status.flatness.handed_over and law.status.steer_held
 
 
 def test_the_flatness_laws_torque_is_within_the_actuators_range():

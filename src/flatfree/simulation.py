@@ -87,6 +87,7 @@ from flatfree.controllers.vehicle import (
     build_mfc,
     lateral_f_hat,
     settings_from_mapping,
+    unread_channels,
     vehicle_step,
     wants_ey_ddot,
     warn_if_untuned_period,
@@ -1050,21 +1051,6 @@ def prepare(sc: Scenario | str, *, python_controller: object | None = None) -> P
     steer0 = float(np.clip(lat.delta[0], -act.max_steer, act.max_steer))
     return Prepared(sc, vehicle, ref, beta, ctrl, act, cref, x0, n_steps, schedule == "path",
                     steer0)
-
-
-def unread_channels(ctrl: VehicleControllerArrays) -> tuple[str, ...]:
-    """The sensor channels the loop's controller never reads: no noise is drawn for them
-    (:meth:`flatfree.sensors.SensorSuite.compile`, ``unread``; a third of a lap's noise for
-    the natural-output controller). Every design reads the pose (the path's schedule, e_y,
-    e_psi), vx (logged as ``meas_vx``) and r; the flat-output designs vy; only a controller
-    that forms e_y'' (the imu estimator; a Python controller gets every column) reads vy,
-    ax and ay. The trajectory is the same bit for bit (each channel draws from its own
-    streams; tests/test_simulation.py)."""
-    if wants_ey_ddot(ctrl.kind, ctrl.coef):
-        return ()
-    if ctrl.kind == KIND.MFC_NATURAL:
-        return ("vy", "ax", "ay")
-    return ("ax", "ay")
 
 
 class PythonController(Protocol):

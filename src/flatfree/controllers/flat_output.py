@@ -178,8 +178,9 @@ class FlatOutputController(_OwnLoopShell):
         self._crl = cr * (model.lf + model.lr)
         # the model-free design near the design model's singular speed (the flatness law hands
         # over there): warned once, at the first measured speed within SAFE_MARGIN of it
+        # (-inf: never; 0 let a reversing flatness law read a steer_min_speed it has not)
         v_star = singular_speed(model)
-        self._v_warn = (0.0 if v_star is None or self._flatness
+        self._v_warn = (-math.inf if v_star is None or self._flatness
                         else (1.0 + SAFE_MARGIN) * v_star)
         self._warned = False
         super().__init__(dt=dt, actuators=actuators, settings=settings)

@@ -136,6 +136,7 @@ __all__ = [
     "SCHEDULES",
     "ESTIMATORS_LAT",
     "wants_ey_ddot",
+    "unread_channels",
     "VehicleControllerArrays",
     "settings_from_mapping",
     "build_mfc",
@@ -858,7 +859,9 @@ class VehicleControllerArrays:
     #                   estimates, started flag, then the bias gain l3 and the bias estimate
     #                   (_IMU_* indices), steer_min_speed, the curvature term on, and
     #                   the term of the period running (_CURV_*)];
-    #                   mfc-flat a, b = lf m, Iz; flatness a = dt
+    #                   mfc-flat a, b = lf m, Iz; flatness a = dt; both then, after the
+    #                   outer correction's 7, its held y2 shift and held flag and mfc-flat's
+    #                   steer_min_speed (_OUTER_SHIFT, _OUTER_HELD, _FLAT_STEER_MIN_V)
     f_lon: np.ndarray  # denoiser kernel state of the speed loop's measurement (or a dummy)
     f_lat: np.ndarray  # denoiser kernel state of the lateral loop's measurement (or a dummy)
     f_yaw: np.ndarray  # denoiser kernel state of the yaw damper's input (or a dummy)
@@ -867,7 +870,7 @@ class VehicleControllerArrays:
         """Fresh controller states."""
         if self.coef.shape[0] > 13:
             self.coef[13] = 0.0  # the path correction's integrator
-        if self.kind in (KIND.FLATNESS, KIND.MFC_FLAT) and self.coef.shape[0] > _OUTER_HELD:
+        if self.kind in (KIND.FLATNESS, KIND.MFC_FLAT):
             self.coef[_OUTER_SHIFT] = 0.0  # no correction held
             self.coef[_OUTER_HELD] = 0.0
         if self.coef.shape[0] > _IMU_STARTED:
@@ -1028,6 +1031,23 @@ def wants_ey_ddot(kind, coef) -> bool:
     return kind == 3 or _imu_on(kind, coef)  # 3: KIND.PYTHON
 
 
+def unread_channels(ctrl: VehicleControllerArrays) -> tuple[str, ...]:
+    """The sensor channels (flatfree.sensors.SENSOR_CHANNELS) the closed loop's controller
+    ``ctrl`` never reads, by what :func:`vehicle_step` reads of :class:`MEAS`: the loop draws
+    no noise for them (:meth:`flatfree.sensors.SensorSuite.compile`, ``unread``; 3 of the
+    8 channels for the natural-output controller). Every design reads the pose (the path's
+    schedule, e_y, e_psi), vx (logged as ``meas_vx``) and r; the flat-output designs vy; only
+    a controller that forms e_y'' (the imu estimator; a Python controller gets every column)
+    reads vy, ax and ay. The trajectory is the same bit for bit (each channel draws from its
+    own streams; tests/test_simulation.py)."""
+    if wants_ey_ddot(ctrl.kind, ctrl.coef):
+        return ()
+    if ctrl.kind == KIND.MFC_NATURAL:
+        return ("vy", "ax", "ay")
+    return ("ax", "ay")
+
+
+
 @njit(**_JIT_STEP)
 def _imu_lateral(p, s, coef, y_alg, y, a, yr, yrd, yrdd, u_prev):
     """The iPD's steer with F, e_y and e_y' from the measured e_y'' (``estimator_lat = "imu"``).
@@ -1108,17 +1128,14 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         if coef[10] != 0.0:
             dr += cref[10]
         shift = cref[9] * dr
-        held = coef.shape[0] > _OUTER_HELD
         if math.isfinite(shift) and math.isfinite(meas[3]):
-            y2r += shift
-            if held:
-                coef[_OUTER_SHIFT] = shift
-                coef[_OUTER_HELD] = 0.0
-        elif held:
+            coef[_OUTER_SHIFT] = shift
+            coef[_OUTER_HELD] = 0.0
+        else:
             # a lost pose, speed or reference sample: the last shift held (left out, the
             # y2 reference jumped back to the uncorrected one for that period: a steer spike)
-            y2r += coef[_OUTER_SHIFT]
             coef[_OUTER_HELD] = 1.0
+        y2r += coef[_OUTER_SHIFT]
     if kind == 0:  # flatness-based (paper Section 2.3), arrays in the lon slots
         return flatness_step(p_lon, s_lon, meas[3], meas[4], meas[5], cref[0], cref[1],
                              y2r, cref[3], cref[4], coef[2], tw_applied, delta_applied)
@@ -1199,7 +1216,7 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # steer applied last; the estimators are told so (their window keeps its time base)
         delta = u_prev
         intelligent_set_applied(p_lat, s_lat, delta - ff)
-    elif kind == 1 and coef.shape[0] > _FLAT_STEER_MIN_V and meas[3] < coef[_FLAT_STEER_MIN_V]:
+    elif kind == 1 and meas[3] < coef[_FLAT_STEER_MIN_V]:
         # MfcFlatSettings.steer_min_speed: at a standstill the steer does not move y2 (and the
         # correction's d y2 / d r changes sign below the singular speed): hold it
         delta = u_prev

@@ -631,28 +631,48 @@ def _path_states(ref: Reference, cf: float, cr: float, m: float, iz: float, lf: 
                             y2_ddot=y2_ddot, method="path")
 
 
-#: The most RK4 sub-steps :func:`_integrate_beta_path` may take (a lap of a bundled track takes
-#: one per sample, a few thousand to ~10^5; a yaw inertia of 1e-6 kg m^2 asked ~10^13 and
-#: the run hung in ``prepare``).
+#: The most RK4 sub-steps :func:`_integrate_beta_path` may take (a lap of a bundled track with
+#: the peugeot406 takes one per sample, 6.2e3-2.5e4; a yaw inertia of 1e-6 kg m^2 asked 3.2e12
+#: and the run hung in ``prepare``).
 MAX_BETA_SUBSTEPS = 10**7
 
 
 def _check_beta_path_substeps(t, v, low, iz, lr, lcr) -> None:
     """``ValueError`` naming the yaw inertia when the sideslip dynamics are too fast to
-    integrate along the reference (:data:`MAX_BETA_SUBSTEPS`; the sub-step rule of
-    :func:`_integrate_beta_path`)."""
-    if t.size < 2:
-        return
-    step = ~(low[:-1] | low[1:])
-    vmin = np.minimum(v[:-1], v[1:])[step]
-    rate = lcr * lr / (iz * vmin) + math.sqrt(lcr / iz)
-    total = float(np.sum(np.maximum(1.0, np.ceil(np.diff(t)[step] * rate / 0.5))))
+    integrate along the reference (:data:`MAX_BETA_SUBSTEPS` of
+    :func:`_beta_path_substeps`, the rule :func:`_integrate_beta_path` steps by)."""
+    total, rate = _beta_path_total_substeps(t, v, low, iz, lr, lcr)
     if total > max(MAX_BETA_SUBSTEPS, 50 * t.size):
         raise ValueError(
             f"iz = {iz!r} kg m^2: the 3DoF model's sideslip dynamics along the reference are "
-            f"that fast (up to {float(np.max(rate)):.3g} 1/s with Cr L = {lcr:.4g} N and lr = "
-            f"{lr:g} m) that integrating them needs {total:.3g} RK4 sub-steps: a yaw inertia "
-            "that small is not a car's (the peugeot406's is 2620 kg m^2)")
+            f"that fast (up to {rate:.3g} 1/s with Cr L = {lcr:.4g} N and lr = {lr:g} m) "
+            f"that integrating them needs {total:.3g} RK4 sub-steps: a yaw inertia that small "
+            "is not a car's (the peugeot406's is 2620 kg m^2)")
+
+
+@numba.njit(cache=True)
+def _beta_path_substeps(h, vmin, iz, lr, lcr, w_stiff):
+    """RK4 sub-steps of a grid step ``h`` [s] of the beta dynamics, as a float (``vmin`` the
+    step's lower speed, ``w_stiff = sqrt(lcr / iz)``): h (damping + sqrt(stiffness)) <= 0.5
+    a sub-step, inside RK4's stability region."""
+    rate = lcr * lr / (iz * vmin) + w_stiff
+    return max(1.0, math.ceil(h * rate / 0.5))
+
+
+@numba.njit(cache=True)
+def _beta_path_total_substeps(t, v, low, iz, lr, lcr):
+    """The sub-steps :func:`_integrate_beta_path` takes on the grid, and the largest rate
+    [1/s] of its steps (0 without one)."""
+    w_stiff = math.sqrt(lcr / iz)
+    total = 0.0
+    top = 0.0
+    for k in range(t.shape[0] - 1):
+        if low[k] or low[k + 1]:
+            continue
+        vmin = min(v[k], v[k + 1])
+        top = max(top, lcr * lr / (iz * vmin) + w_stiff)
+        total += _beta_path_substeps(t[k + 1] - t[k], vmin, iz, lr, lcr, w_stiff)
+    return total, top
 
 
 def _y2_ddot_model(vx, ax, vy, vy_dot, r, r_dot, vxs, m, lf, lr, cr):
@@ -734,9 +754,7 @@ def _integrate_beta_path(t, v, a, kap, rkd, m, iz, lf, lr, cr, low):
         if k == n - 1 or low[k + 1]:
             continue
         h = t[k + 1] - t[k]
-        vmin = min(v[k], v[k + 1])
-        rate = lcr * lr / (iz * vmin) + w_stiff
-        nsub = max(1, int(math.ceil(h * rate / 0.5)))
+        nsub = int(_beta_path_substeps(h, min(v[k], v[k + 1]), iz, lr, lcr, w_stiff))
         hs = h / nsub
         for j in range(nsub):
             f0 = j / nsub
