@@ -607,6 +607,42 @@ def test_dropout_prediction_keeps_the_estimate_exact_on_the_ultra_local_model(nu
     assert n_checked == 40 and c.status.n_nonfinite == 3
 
 
+@pytest.mark.parametrize("nu, window, gap", [(1, 6, 4), (1, 30, 45), (2, 6, 4), (2, 40, 25),
+                                             (2, 40, 55)])
+def test_a_gap_ends_with_the_window_it_would_have_had(nu, window, gap):
+    # y^(nu) = F + alpha u with F stepping by dF just after the last measured sample: the
+    # prediction of the i-th missing sample, made with the F before the step, errs by exactly
+    # dF dt^2 i^2 / 2 (nu = 2; dF dt i for nu = 1), which _end_gap's (i / (m + 1))^nu share of
+    # the first measured sample's error undoes. So after the gap the window holds the samples
+    # as measured: the controller's F and y' estimates equal, to rounding, those of a twin fed
+    # every sample and told the same applied inputs. Windows of 30-40 take the sliding-moment
+    # form, 6 the plain sums; gaps of 45 and 55 outlast their windows.
+    dt, alpha, f0, df = 0.01, 2.0, 0.3, -0.7
+    mk = ((lambda: IP(alpha=alpha, kp=3.0, dt=dt, window=window)) if nu == 1 else
+          (lambda: IPD(alpha=alpha, kp=9.0, kd=6.0, dt=dt, window=window, derivative="model")))
+    a, b = mk(), mk()
+    k_gap = 2 * window + 3  # the first missing sample
+    y, v = 0.1, 0.2
+    worst_f = worst_d = u_last = 0.0
+    for k in range(k_gap + gap + 20):
+        missing = k_gap <= k < k_gap + gap
+        u = a.step(float("nan") if missing else y, 0.5)
+        b.step(y, 0.5, applied=None if k == 0 else u_last)
+        if k >= k_gap + gap:  # from the first measured sample after the gap on
+            sa, sb = a.status, b.status
+            worst_f = max(worst_f, abs(sa.f_hat - sb.f_hat))
+            worst_d = max(worst_d, abs(sa.error_rate - sb.error_rate))
+        u_last = u
+        acc = (f0 if k < k_gap - 1 else f0 + df) + alpha * u
+        if nu == 1:
+            y += acc * dt
+        else:
+            y, v = y + v * dt + 0.5 * acc * dt * dt, v + acc * dt
+    assert a.status.n_nonfinite == gap and b.status.n_nonfinite == 0
+    # rounding only (the old window, which met the step, erred by 0.5-4.2 in F)
+    assert worst_f < 5e-12 and worst_d < 5e-12  # measured <= 4.3e-13 and 1.7e-14
+
+
 def _drive(c: IntelligentController, ys, refs) -> np.ndarray:
     return np.array([c.step(y, r, rd, rdd) for y, (r, rd, rdd) in zip(ys, refs, strict=True)])
 
@@ -1208,7 +1244,6 @@ def test_override_replaces_the_steps_output_against_the_previous_one():
     from flatfree.controllers.intelligent import (
         IPAR,
         IST,
-        MOMENT_DEGREE,
         intelligent_override,
     )
 
@@ -1235,7 +1270,7 @@ def test_override_replaces_the_steps_output_against_the_previous_one():
     # the step moved the head by one, the override does not; the step's u slot (both copies)
     # holds v, the slot before it still u_prev, and nothing else in either ring changed
     L = int(p[IPAR.L])
-    hs = int(IST.MU) + MOMENT_DEGREE + 1
+    hs = int(IST.GAP) + 1  # the header: the moments' blocks, then GAP
     ub, head = hs + 2 * L, int(s[IST.HEAD])
     assert head == (int(before[IST.HEAD]) - 1) % L and big[IST.HEAD] == head
     assert big[ub + head] == v and big[ub + head + L] == v

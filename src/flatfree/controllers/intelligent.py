@@ -104,6 +104,11 @@ Start, limits, bad samples
   by ``dt (F_hat + alpha u_{k-1})``); exact on the ultra-local model with constant F (with the
   ``"model"`` derivative for nu = 2). Before the first finite
   sample nothing is stored, and before the window is full the last finite value is repeated.
+  At the first finite ``y`` after such a gap of ``m`` samples, its error ``d`` against the
+  prediction is spread back over the gap: the ``i``-th predicted sample moves by
+  ``d (i / (m + 1))^nu``, the shape of the prediction's error when F changed at the gap's
+  start. The window then holds no step (which made a spike of F_hat and ``y'_hat``), and on
+  the ultra-local model with F stepping at the gap's start it holds the samples as measured.
 * Overflow: finite values so large that the law's arithmetic overflows (of the order of
   1e300) make the compiled step's output NaN or infinite, and the window then holds them.
   The compiled kernel returns that output as it is (no check in the loop); the Python shell
@@ -159,6 +164,7 @@ __all__ = [
     "intelligent_reset",
     "intelligent_set_applied",
     "intelligent_law_ran",
+    "intelligent_predict",
     "make_state",
     "model_derivative_weights",
     "ESTIMATOR_CODES",
@@ -203,9 +209,9 @@ _HP = len(IPAR)
 
 class IST(enum.IntEnum):
     """Header of the state array (:func:`make_state`; ``MY`` and ``MU`` start blocks of
-    ``MOMENT_DEGREE + 1`` entries, so the header is 25 long); then two ring buffers of ``2 L``
-    entries (measurements ``y`` and applied inputs ``u``, each sample written twice so that the
-    last ``L`` are contiguous, newest first)."""
+    ``MOMENT_DEGREE + 1`` entries, then ``GAP``: the header is 26 long); then two ring buffers
+    of ``2 L`` entries (measurements ``y`` and applied inputs ``u``, each sample written twice
+    so that the last ``L`` are contiguous, newest first)."""
 
     K = 0  # samples stored in the window so far
     HEAD = 1  # ring position of the newest sample
@@ -224,6 +230,7 @@ class IST(enum.IntEnum):
     M_SINCE = 14  # samples since their last exact recomputation
     MY = 15  # moments of the y window, MOMENT_DEGREE + 1 entries (15-19)
     MU = 20  # moments of the u window (20-24)
+    GAP = 25  # samples the window took from the model since the last finite y (a gap)
 
 
 #: Degree of the polynomial weights the sliding-moment form represents (``f_estimator_weights``
@@ -235,16 +242,16 @@ _ND = MOMENT_DEGREE + 1
 MOMENT_BLOCK = _ND * _ND + 7 * _ND
 #: Smallest buffer length for which the moment form is used (below, the plain sums are as fast).
 MOMENT_MIN_LENGTH = 16
-_HS = int(IST.MU) + _ND  # the header's length (the moments take ND entries each)
+_HS = int(IST.GAP) + 1  # the header's length (the moments take ND entries each, then GAP)
 assert _ND == 5  # _slide_moments is written out for degree 4
 
 # plain ints for the compiled code (numba folds module-level ints into constants)
 _NU, _ALPHA, _KP, _KI, _KD, _DT = 0, 1, 2, 3, 4, 5
 _UMIN, _UMAX, _RATE, _U0, _AW, _L, _MOM, _REFRESH, _CMAX = 6, 7, 8, 9, 10, 11, 12, 13, 14
 _K, _HEAD, _NNF, _NF, _U, _INT, _FH, _E, _ED, _YD, _SAT, _RL, _YL = range(13)
-_MVALID, _MSINCE, _MY, _MU = 13, 14, 15, 20
+_MVALID, _MSINCE, _MY, _MU, _GAP = 13, 14, 15, 20, 25
 assert [m.value for m in IPAR] == list(range(15)) and _HP == 15
-assert [m.value for m in IST] == [*range(13), 13, 14, 15, 20] and _HS == 25
+assert [m.value for m in IST] == [*range(13), 13, 14, 15, 20, 25] and _HS == 26
 # offsets inside the moment block: shift matrix, x_0^m, x_L^m (y), x_(L-1)^m (u), coefficients
 _MB_B, _MB_ADD, _MB_DY, _MB_DU = 0, _ND * _ND, _ND * _ND + _ND, _ND * _ND + 2 * _ND
 _MB_CY, _MB_CU, _MB_CDY, _MB_CDU = (_ND * _ND + 3 * _ND, _ND * _ND + 4 * _ND,
@@ -322,7 +329,7 @@ def intelligent_reset(p: np.ndarray, s: np.ndarray) -> None:
     p : ndarray
         Parameter array from :meth:`IntelligentParams.to_array`.
     s : ndarray
-        State array of length ``25 + 4 L`` (the IST header, then the rings; :func:`make_state`).
+        State array of length ``26 + 4 L`` (the IST header, then the rings; :func:`make_state`).
     """
     s[:] = 0.0
     u0 = min(max(p[_U0], p[_UMIN]), p[_UMAX])
@@ -372,6 +379,71 @@ def _push_y(s, y_in, L):
     s[yb0 + head + L] = y_in
     s[_YL] = y_in
     return head, y_old
+
+
+@numba.njit(**_JIT_INLINE)
+def _predict(p, s, k, L):
+    """The ultra-local model's prediction of the next sample over one zero-order-hold step,
+    ``y' = F + alpha u`` (nu = 1) or ``y'' = F + alpha u`` (nu = 2), from the last sample, the
+    window's estimates and the last output (NOTES.md ultra-local model); the last sample
+    itself while the window is not full (``k < L``: no estimate yet)."""
+    if k < L:
+        return s[_YL]
+    dt = p[_DT]
+    acc = s[_FH] + p[_ALPHA] * s[_U]
+    if int(p[_NU]) == 1:
+        return s[_YL] + dt * acc
+    return s[_YL] + dt * s[_YD] + 0.5 * dt * dt * acc
+
+
+@numba.njit(**_JIT_INLINE)
+def gap_weight(i: int, m: int, nu: int) -> float:
+    """The share ``(i / (m + 1))^nu`` of the prediction error at the first sample after a gap
+    that the gap's ``i``-th of ``m`` model-given samples takes (:func:`_end_gap`)."""
+    w = i / (m + 1.0)
+    return w if nu == 1 else w * w
+
+
+@numba.njit(**_JIT_STEP)
+def intelligent_predict(p: np.ndarray, s: np.ndarray) -> float:
+    """The model's prediction of the next sample, the one a non-finite ``y`` would store
+    (:func:`intelligent_step`)."""
+    return _predict(p, s, int(s[_K]), int(p[_L]))
+
+
+@numba.njit(**_JIT_STEP)
+def _end_gap(p, s, y, L):
+    """At the first finite ``y`` after a gap (``GAP`` > 0 samples the window took from the
+    model): move those samples toward ``y`` so that the window sees no step.
+
+    The model held F over the gap; a change of F at its start by ``dF`` makes the prediction
+    err by ``dF t^nu / nu!`` after the time ``t``, so the ``i``-th of ``m`` predicted samples
+    (``i = m`` the last) is moved by ``d (i / (m + 1))^nu``, ``d = y - prediction`` of this
+    sample. Without it the window's sums meet a step of ``d`` at its newest end: a spike of F
+    and ``y'`` that, after a 0.2 s gap in the position, sent the steer at its rate limit into
+    a growing weave (benchmarks/README.md "Bridging a gap in the position"). Moments are
+    marked stale (recomputed exactly at the step). The weights are a model of the error, not
+    a measurement: where F moved otherwise, what is left of the step still enters, smaller.
+    """
+    m = int(s[_GAP])
+    if m <= 0:
+        return
+    s[_GAP] = 0.0
+    s[_MVALID] = 0.0
+    d = y - _predict(p, s, int(s[_K]), L)
+    if not math.isfinite(d):
+        return
+    nu = int(p[_NU])
+    head = int(s[_HEAD])  # the newest stored sample: the gap's last (i = m)
+    yb0 = _HS
+    for j in range(min(m, L)):
+        c = d * gap_weight(m - j, m, nu)
+        idx = head + j
+        if idx >= L:
+            idx -= L
+        s[yb0 + idx] += c
+        s[yb0 + idx + L] += c
+    s[_YL] += d * gap_weight(m, m, nu)
 
 
 @numba.njit(**_JIT_STEP)
@@ -551,16 +623,14 @@ def intelligent_step(
     # ---- push the measurement (or the model's prediction of it) into the y ring buffer ----
     if y_ok:
         y_in = y
-    elif k >= L:
-        # NOTES.md ultra-local model, one zero-order-hold step: y' = F + alpha u
-        acc = s[_FH] + alpha * u_prev
-        if nu == 1:
-            y_in = s[_YL] + dt * acc
-        else:
-            y_in = s[_YL] + dt * s[_YD] + 0.5 * dt * dt * acc
-            s[_YD] += dt * acc  # the velocity moves on too (consecutive missing samples)
+        if s[_GAP] > 0.0:
+            _end_gap(p, s, y, L)  # the gap's predicted samples moved toward y
     else:
-        y_in = s[_YL]
+        # NOTES.md ultra-local model, one zero-order-hold step: y' = F + alpha u
+        y_in = _predict(p, s, k, L)
+        if nu == 2 and k >= L:
+            s[_YD] += dt * (s[_FH] + alpha * u_prev)  # the velocity moves on too
+        s[_GAP] += 1.0
     head, y_old = _push_y(s, y_in, L)
     use_mom = p[_MOM] != 0.0
     exact_moments = False
@@ -668,6 +738,8 @@ def intelligent_step_external(p, s, y, y_ref, y_ref_dot, y_ref_ddot, f_hat, y_ha
                                and math.isfinite(y_dot_hat))):
         return intelligent_step(p, s, y, y_ref, y_ref_dot, y_ref_ddot)
     u_prev = s[_U]
+    if s[_GAP] > 0.0:
+        _end_gap(p, s, y, L)
     _push_y(s, y, L)
     s[_MVALID] = 0.0
     e = y_hat - y_ref

@@ -113,8 +113,10 @@ from flatfree.controllers.intelligent import (
     IST,
     IntelligentParams,
     IntelligentStatus,
+    gap_weight,
     intelligent_law_ran,
     intelligent_override,
+    intelligent_predict,
     intelligent_set_applied,
     intelligent_status,
     intelligent_step,
@@ -122,6 +124,7 @@ from flatfree.controllers.intelligent import (
     make_state,
 )
 from flatfree.estimators import denoising_weights, fir_new, fir_reset, fir_update
+from flatfree.estimators._fir import fir_add
 from flatfree.models.bicycle3dof import Bicycle3DoFParams
 
 __all__ = [
@@ -1006,6 +1009,7 @@ _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
 _UMIN_I, _UMAX_I = int(IPAR.U_MIN), int(IPAR.U_MAX)
 _F_HAT_I = int(IST.F_HAT)
 _K_I, _U_I, _YD_I = int(IST.K), int(IST.U), int(IST.YDOT)
+_GAP_I, _YL_I, _NU_I = int(IST.GAP), int(IST.Y_LAST), int(IPAR.NU)
 
 
 # The step kernels allocate nothing and only index the arrays they are given: compiled without
@@ -1097,6 +1101,36 @@ def _imu_lateral(p, s, coef, y_alg, y, a, yr, yrd, yrdd, u_prev):
                                      coef[_IMU_ED])
 
 
+@njit(**dict(_JIT_STEP, forceinline=True))
+def _denoised(p, s, f, y):
+    """``y`` through a loop's denoiser ``f`` (NOTES.md denoiser (2T - 3d)); a non-finite ``y``
+    bypasses it (the intelligent controller's own policy applies). At the first finite ``y``
+    after a gap of its loop (``IST.GAP``) the denoiser's samples of the gap (the model's, see
+    :func:`_bridge_denoiser`) are first moved toward ``y`` as the controller's window's are
+    (:func:`~flatfree.controllers.intelligent.gap_weight`, at the raw sample's prediction
+    error), so that neither meets a step."""
+    if not math.isfinite(y):
+        return y
+    m = int(s[_GAP_I])
+    if m > 0:
+        d = y - intelligent_predict(p, s)
+        if math.isfinite(d):
+            nu = int(p[_NU_I])
+            for j in range(m):
+                if not fir_add(f, j, d * gap_weight(m - j, m, nu)):
+                    break
+    return fir_update(f, y)
+
+
+@njit(**dict(_JIT_STEP, forceinline=True))
+def _bridge_denoiser(s, f):
+    """After a step that took its sample from the model (a non-finite ``y``: ``IST.GAP`` > 0),
+    the denoiser ``f`` takes the same sample, so that its window keeps its time base through
+    the gap (it would otherwise join the samples before the gap to the one after it)."""
+    if s[_GAP_I] > 0.0:
+        fir_update(f, s[_YL_I])
+
+
 @njit(**_JIT_STEP)
 def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, meas, cref,
                  tw_applied, delta_applied):
@@ -1147,17 +1181,19 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         intelligent_set_applied(p_lon, s_lon, tw_applied)
         intelligent_set_applied(p_lat, s_lat, delta_applied - ff_run)
     vx = meas[3]
-    if coef[0] != 0.0 and math.isfinite(vx):
-        vx = fir_update(f_lon, vx)  # NOTES.md denoiser (2T - 3d)
+    if coef[0] != 0.0:
+        vx = _denoised(p_lon, s_lon, f_lon, vx)  # NOTES.md denoiser (2T - 3d)
     tw = intelligent_step(p_lon, s_lon, vx, cref[0], cref[1], 0.0)  # iP / iPI on Vx
+    if coef[0] != 0.0:
+        _bridge_denoiser(s_lon, f_lon)
     if kind == 2:  # natural outputs: iPD on e_y (paper Section 3.4)
         y = meas[6]
         yr, yrd, yrdd = cref[5], cref[6], cref[7]
     else:  # flat outputs: iPI on y2 = lf m Vy - Iz r (paper Section 3.3)
         y = coef[2] * meas[4] - coef[3] * meas[5]
         yr, yrd, yrdd = y2r, cref[3], 0.0
-    if coef[1] != 0.0 and math.isfinite(y):
-        y = fir_update(f_lat, y)  # NOTES.md denoiser (2T - 3d)
+    if coef[1] != 0.0:
+        y = _denoised(p_lat, s_lat, f_lat, y)  # NOTES.md denoiser (2T - 3d)
     if kind == 2 and coef.shape[0] > 17 and coef[16] > 0.0 and math.isfinite(meas[3]):
         # speed schedule of the lateral error dynamics (MfcNaturalSettings.wn_lat_speed)
         wn = coef[15] * min(max(coef[16] / max(meas[3], _OUTER_V_MIN), 1.0), coef[17])
@@ -1179,6 +1215,8 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         delta = _imu_lateral(p_lat, s_lat, coef, y, meas[6], meas[10], yr, yrd, yrdd, u_prev)
     else:
         delta = intelligent_step(p_lat, s_lat, y, yr, yrd, yrdd)
+    if coef[1] != 0.0:
+        _bridge_denoiser(s_lat, f_lat)
     if curv:
         p_lat[_UMIN_I] = u_min
         p_lat[_UMAX_I] = u_max

@@ -48,7 +48,7 @@ from numba import njit
 from flatfree._validate import real_array, whole
 from flatfree._vecmath import no_refcount
 
-__all__ = ["STARTUP", "NONFINITE", "fir_new", "fir_reset", "fir_update", "fir_batch"]
+__all__ = ["STARTUP", "NONFINITE", "fir_new", "fir_reset", "fir_update", "fir_add", "fir_batch"]
 
 STARTUP = {"prefill": 0, "shrink": 1}
 NONFINITE = {"raise": 0, "hold": 1}
@@ -199,6 +199,23 @@ def fir_update(ks: np.ndarray, x: float) -> float:
     ks[_P] = p
     ks[_COUNT] = count
     return acc
+
+
+@njit(**_JIT)
+def fir_add(ks: np.ndarray, lag: int, c: float) -> bool:
+    """Add ``c`` to the sample pushed ``lag`` steps ago (0: the newest) in a kernel state's
+    buffer; the next :func:`fir_update` sees it so. Returns False, changing nothing, when the
+    buffer no longer holds that sample (``lag >= ntaps``) or has not received it."""
+    ntaps = int(ks[_NTAPS])
+    if lag < 0 or lag >= ntaps or lag >= int(ks[_COUNT]):
+        return False
+    pos = int(ks[_P]) - 1 - lag
+    if pos < 0:
+        pos += ntaps
+    obuf = int(ks[_OBUF])
+    ks[obuf + pos] += c
+    ks[obuf + pos + ntaps] += c
+    return True
 
 
 @njit(cache=True)
