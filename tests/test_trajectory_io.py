@@ -164,6 +164,28 @@ def test_csv_reading_errors_name_the_file_and_the_problem(tmp_path):
         Trajectory.from_csv(path)
 
 
+def test_a_missing_file_is_file_not_found_for_both_readers(tmp_path):
+    # the CSV reader talked of a missing sidecar; both now say the file itself is missing
+    with pytest.raises(FileNotFoundError, match=re.escape(f"{tmp_path / 'no.csv'}: no such file")):
+        Trajectory.from_csv(tmp_path / "no.csv")
+    with pytest.raises(FileNotFoundError):
+        Trajectory.from_parquet(tmp_path / "no.parquet")
+
+
+@pytest.mark.parametrize("bad, dtype", [(["1.0", "2.0"], "<U3"), ([True, False], "bool"),
+                                        ([None, 1.0], "object")])
+def test_signal_values_that_are_not_numbers_are_refused(bad, dtype):
+    # numpy would parse the text and take the booleans as 0/1 silently
+    msg = (f"signal 'a': values of dtype {dtype} ('{np.dtype(dtype).kind}'): expected real "
+           "numbers (a float or integer array)")
+    with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+        Trajectory(time=[0.0, 1.0], signals={"a": bad}, units={"a": "m"})
+    with pytest.raises(ValueError, match=r"^time: values of dtype <U3"):
+        Trajectory(time=bad if dtype == "<U3" else ["0.0", "1.0"], signals={}, units={})
+    # integers are numbers
+    assert Trajectory(time=[0, 1], signals={"a": [1, 2]}, units={"a": "m"})["a"].dtype == float
+
+
 def test_parquet_round_trip_and_foreign_files(tmp_path):
     import pyarrow as pa
     import pyarrow.parquet as pq

@@ -49,11 +49,18 @@ def _adopting() -> Iterator[None]:
         _ADOPT.reset(token)
 
 
-def _float_array(values, adopt: bool) -> np.ndarray:
-    """``values`` as float64: a copy, or (``adopt``) the array itself where it is one."""
+def _float_array(name: str, values, adopt: bool) -> np.ndarray:
+    """``values`` as float64: a copy, or (``adopt``) the array itself where it is one.
+
+    Numbers only: text (``["1.0"]``, which numpy would parse), booleans and objects are a
+    ``ValueError`` naming the signal ``name`` and the dtype, not a silent conversion."""
+    a = np.asarray(values)
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{name}: values of dtype {a.dtype} ({a.dtype.kind!r}): expected real "
+                         "numbers (a float or integer array)")
     if adopt:
-        return np.asarray(values, dtype=np.float64)
-    return np.array(values, dtype=np.float64, copy=True)
+        return np.asarray(a, dtype=np.float64)
+    return np.array(a, dtype=np.float64, copy=True)
 
 
 class Status(enum.Enum):
@@ -96,7 +103,7 @@ class Trajectory:
 
     def __post_init__(self) -> None:
         adopt = _ADOPT.get()
-        t = _float_array(self.time, adopt)
+        t = _float_array("time", self.time, adopt)
         if t.ndim != 1:
             raise ValueError(f"time has shape {t.shape}: expected a 1-D array")
         if not np.all(np.isfinite(t)):
@@ -109,7 +116,7 @@ class Trajectory:
         t.flags.writeable = False
         sig: dict[str, np.ndarray] = {}
         for name, values in self.signals.items():
-            a = _float_array(values, adopt)
+            a = _float_array(f"signal {name!r}", values, adopt)
             if a.shape != t.shape:
                 raise ValueError(
                     f"signal {name!r} has shape {a.shape}, expected {t.shape} like time"
@@ -279,6 +286,8 @@ class Trajectory:
         import json
 
         path = Path(path)
+        if not path.exists():  # as from_parquet: the file itself is missing, not its sidecar
+            raise FileNotFoundError(f"{path}: no such file")
         side = _sidecar(path)
         if not side.is_file():
             raise ValueError(f"{path}: not a flatfree trajectory (no sidecar {side.name} with "
