@@ -224,6 +224,34 @@ def test_a_steer_limit_that_binds_for_1_s_is_survived():
     assert np.max(np.abs(tr["steer"][~window])) > 0.005
 
 
+def test_a_steer_limit_is_reached_at_the_steering_rate_limit():
+    """A limit of 0 rad from the moment of the largest steer of `paper`'s first 6 s (about
+    0.07 rad): the wheels are driven in at the actuator's rate limit (0.4 rad/s), not clamped
+    at once (which moved them at ~70 rad/s in one plant step), then held at the limit until the
+    fault ends."""
+    from flatfree.actuators import ActuatorParams
+    from flatfree.scenarios import named_scenario
+    from flatfree.vehicles import load_vehicle
+
+    sc = named_scenario("paper", duration_s=6.0).with_(
+        timing=Timing(duration_s=6.0, log_dt_s=0.001))
+    free = simulate(sc)
+    w = (free.time >= 2.0) & (free.time < 5.0)
+    k = int(np.flatnonzero(w)[np.argmax(np.abs(free["steer"][w]))])
+    t0, d0 = float(free.time[k]), float(free["steer"][k])
+    assert abs(d0) > 0.03
+    tr = simulate(sc.with_(faults=(Fault(kind="steer_limit", t_start_s=t0, duration_s=0.5,
+                                         value=0.0),)))
+    rate = ActuatorParams.from_vehicle(load_vehicle("peugeot406")).max_steer_rate
+    steer, t = tr["steer"], tr.time
+    assert np.max(np.abs(np.diff(steer)) / np.diff(t)) <= rate * (1.0 + 1e-9)
+    reach = t0 + abs(d0) / rate + 0.002  # the ramp in, within two plant steps
+    held = (t >= reach) & (t < t0 + 0.5)
+    assert held.sum() > 200 and np.all(steer[held] == 0.0)
+    ramp = (t >= t0) & (t < reach - 0.004)
+    assert np.all(np.abs(steer[ramp]) > 0.0)  # not at the limit at once
+
+
 def test_low_friction_patch_reaches_the_plant_and_the_run_ends_with_its_status():
     """mu 0.5 on the first 80 m, into which the mu = 1 profile brakes at 6 m/s^2 (more than
     0.5 g): the car slides off the track (left_track after the patch starts, finite numbers),

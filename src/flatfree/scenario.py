@@ -390,7 +390,9 @@ class Fault:
     """A fault injected during the run.
 
     ``nan_measurement``: the measured ``channel`` reads NaN during the interval.
-    ``steer_limit``: the steering range is limited to ``value`` [rad] during the interval.
+    ``steer_limit``: the steering range is limited to ``value`` [rad] during the interval; a
+    steer beyond it when the fault starts is driven in at the actuator's rate limit
+    (``max_steer_rate``), as the steering motor would, then held within it.
     A key of the other kind (a ``value`` for ``nan_measurement``, a ``channel`` for
     ``steer_limit``) is refused: the run would ignore it.
     """

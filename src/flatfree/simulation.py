@@ -541,10 +541,14 @@ def _closed_loop(plant, x, mp, tpf, tpr, bp, lf, lr, dt, n_steps, ctrl_every,
         # the power cap at the driveline's speed (a spinning driven wheel takes power too);
         # the 3DoF plant has no wheel spins: its body speed
         v_drive = drive_speed(x, mp) if plant == 0 else truth[3]
+        delta_prev = act_s[0]
         tw, delta = actuate_step(tw_cmd, delta_cmd, v_drive, act_p, act_s)
         for f in range(steer_faults.shape[0]):
             if steer_faults[f, 0] <= t < steer_faults[f, 1]:
-                lim = steer_faults[f, 2]
+                # the range shrinks to the limit no faster than the steer's rate limit: a
+                # steer beyond it when the fault starts is driven in by the actuator (a
+                # clamp at once moved the wheels at ~5 rad/s, counted in the rate metrics)
+                lim = max(steer_faults[f, 2], abs(delta_prev) - act_p[1])
                 delta = min(max(delta, -lim), lim)
                 act_s[0] = delta
         tw_app = tw
