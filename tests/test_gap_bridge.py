@@ -8,14 +8,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from flatfree.actuators import ActuatorParams
 from flatfree.controllers.intelligent import IP, intelligent_set_applied, intelligent_step
-from flatfree.controllers.vehicle import _bridge_denoiser, _denoised, _denoiser
+from flatfree.controllers.vehicle import (
+    MfcNaturalSettings,
+    NaturalOutputController,
+    _bridge_denoiser,
+    _denoised,
+    _denoiser,
+)
 from flatfree.estimators import fir_update
 from flatfree.estimators._fir import fir_add
 from flatfree.metrics import compute_metrics
 from flatfree.scenario import Fault
-from flatfree.scenarios import named_scenario
+from flatfree.scenarios import NATURAL_SETTINGS, named_scenario
 from flatfree.simulation import simulate
+from flatfree.vehicles import load_vehicle
 
 
 def test_fir_add_moves_the_sample_it_names_and_no_other():
@@ -83,3 +91,28 @@ def test_paper_rides_out_a_half_second_position_gap(t0):
     m = compute_metrics(tr)
     assert m.status == "completed"
     assert m.lateral_error_max_m < 0.02
+
+
+def test_the_yaw_damper_stays_live_through_a_gap_in_e_y():
+    # paper's settings without the damper's denoiser and the curvature term (kappa 0), so that
+    # the steps are exact: while e_y is NaN (the window full) the steer held moves by
+    # -k_r (r_k - r_(k-1)) a step, the yaw rate still measured; the window's own prediction
+    # and its hold are as before (the iPD's output held). Slow enough a change of r that the
+    # actuators' rate limit does not bind.
+    settings = MfcNaturalSettings(**{**NATURAL_SETTINGS, "denoise_yaw": 0})
+    k_r = settings.yaw_damping
+    assert k_r > 0.0 and settings.feed_applied
+    ctl = NaturalOutputController(
+        dt=0.001, actuators=ActuatorParams.from_vehicle(load_vehicle("peugeot406")),
+        settings=settings)
+    ctl.reset(steer0=0.01)
+    rng = np.random.default_rng(5)
+    steer = []
+    for k in range(600):
+        e_y = np.nan if k >= 400 else 0.002 * np.sin(0.01 * k) + 1e-4 * rng.normal()
+        r = 0.05 + 1e-4 * (k - 400) if k >= 400 else 0.05
+        steer.append(ctl.step(vx=20.0, r=r, e_y=e_y, kappa=0.0, vx_ref=20.0)[1])
+        if k >= 400:
+            assert ctl.status.steer_held
+    d = np.diff(steer)[400:]  # the steps from k = 401 on
+    assert np.allclose(d, -k_r * 1e-4, rtol=1e-9, atol=0.0)

@@ -873,6 +873,8 @@ class VehicleControllerArrays:
         """Fresh controller states."""
         if self.coef.shape[0] > 13:
             self.coef[13] = 0.0  # the path correction's integrator
+        if self.kind == KIND.MFC_NATURAL and self.coef.shape[0] > _DAMP_DR:
+            self.coef[_DAMP_DR] = 0.0  # no damper term in the start's steer
         if self.kind in (KIND.FLATNESS, KIND.MFC_FLAT):
             self.coef[_OUTER_SHIFT] = 0.0  # no correction held
             self.coef[_OUTER_HELD] = 0.0
@@ -971,7 +973,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                          math.exp(-dt / s.imu_filter_s), (2.0 * w_o + w_b) * dt,
                          (w_o * w_o + 2.0 * w_o * w_b) * dt,
                          0.0, 0.0, 0.0, 0.0, 0.0, w_o * w_o * w_b * dt, 0.0,
-                         s.steer_min_speed, float(s.curvature_term), 0.0])
+                         s.steer_min_speed, float(s.curvature_term), 0.0, 0.0])
     elif controller == "mfc-flat":
         s2: MfcFlatSettings = settings
         positive("mass", mass, "kg")
@@ -1005,6 +1007,8 @@ _STEER_MIN_V = 29  # MfcNaturalSettings.steer_min_speed [m/s]
 _OUTER_SHIFT, _OUTER_HELD, _FLAT_STEER_MIN_V = 14, 15, 16
 # MfcNaturalSettings.curvature_term: on; the term Vx^2 kappa / alpha [rad] of the period running
 _CURV_ON, _CURV_FF = 30, 31
+# mfc-natural: the yaw damper's input r - Vx kappa at its last term
+_DAMP_DR = 32
 _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
 _UMIN_I, _UMAX_I = int(IPAR.U_MIN), int(IPAR.U_MAX)
 _F_HAT_I = int(IST.F_HAT)
@@ -1249,6 +1253,20 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
                     delta = p_lat[_UMIN_I]
                 elif delta > p_lat[_UMAX_I]:
                     delta = p_lat[_UMAX_I]
+                if kind == 2 and coef.shape[0] > _DAMP_DR:
+                    coef[_DAMP_DR] = dr
+            elif kind == 2 and coef.shape[0] > _DAMP_DR and s_lat[_K_I] >= p_lat[_L_I]:
+                # a step held on a non-finite input (a gap in the position): the damper stays
+                # live on the change of its input since its last term, which the held steer
+                # holds; the yaw rate is still measured, and without it the car drifted off
+                # the line on a corner's entry (benchmarks/README.md "The yaw damper through
+                # a gap in the position")
+                delta -= coef[4] * (dr - coef[_DAMP_DR])
+                if delta < p_lat[_UMIN_I]:
+                    delta = p_lat[_UMIN_I]
+                elif delta > p_lat[_UMAX_I]:
+                    delta = p_lat[_UMAX_I]
+                coef[_DAMP_DR] = dr
     if kind == 2 and coef.shape[0] > _STEER_MIN_V and meas[3] < coef[_STEER_MIN_V]:
         # too slow for the steer to move e_y (MfcNaturalSettings.steer_min_speed): hold the
         # steer applied last; the estimators are told so (their window keeps its time base)
@@ -1521,10 +1539,13 @@ class NaturalOutputController(_OwnLoopShell):
         and ``window_lat - 1`` steps, 0.1 s at the default settings) each loop gives its
         start value, the :meth:`reset`'s ``torque0`` and ``steer0``. A step whose ``e_y`` (or
         lateral reference) is not finite holds the steer applied last, the yaw damper's term
-        in it (the damper acts with the iPD's law only; with ``feed_applied = False`` the iPD
-        holds its own output and the damper is added at every step, the warm-up's included;
-        with ``curvature_term`` the held steer follows the change of the term ``vx^2 kappa /
-        alpha`` since); the steer returned is within ``actuators.max_steer``.
+        in it (the damper acts with the iPD's law; once the window is full, a held step
+        follows the change of the damper's term since its last one, the yaw rate being still
+        measured; with ``feed_applied = False`` the iPD holds its own output and the damper is
+        added at every step, the warm-up's included; with ``curvature_term`` the held steer
+        follows the change of the term ``vx^2 kappa / alpha`` since); the steer returned is
+        within ``actuators.max_steer``. The iPD's window and denoiser bridge the gap with the
+        ultra-local model's predictions (:mod:`flatfree.controllers.intelligent`).
 
         Conventions (ISO 8855, as the whole library): body axes at the CoG, x forward, y
         left, z up; the yaw rate, the steer and the curvature are positive to the left
