@@ -10,7 +10,8 @@ figures of benchmarks/README.md "A held steer held the yaw damper's term twice":
 3. ``--trace``: ``paper`` with the 0.1 s gap at 11 s and without it (16 s runs), per interval
    the max |e_y|, the range of the steer command, of the applied steer and of the lateral
    loop's F_hat, and the share of the logged samples at the steer-rate limit;
-4. ``--sweep [--track T]``: gaps of 0.05-0.5 s starting at 3.0, 4.3, ... 39.4 s (29 starts,
+4. ``--sweep [--track T] [--channel C]``: gaps of 0.05-0.5 s in ``y`` (or C) starting at 3.0,
+   4.3, ... 39.4 s (29 starts,
    each run going on 5 s after its gap's start; seed 0), ``paper`` and ``paper-imu``: per
    duration how many runs stay within 4 cm (2x the target), the median max lateral error and
    the worst of those within (benchmarks/README.md "Bridging a gap in the position").
@@ -62,14 +63,14 @@ def _result(tr, m) -> str:
     return f"left at {tr.status_time:.1f} s"
 
 
-def sweep(track: str) -> None:
-    """Part 4 (module docstring)."""
+def sweep(track: str, channel: str = "y") -> None:
+    """Part 4 (module docstring); ``channel`` the one blanked."""
     starts = np.arange(3.0, 40.0, 1.3)
     for name in ("paper", "paper-imu"):
         for dur in (0.05, 0.1, 0.2, 0.3, 0.5):
             res = []
             for t0 in starts:
-                gap = Fault(kind="nan_measurement", channel="y", t_start_s=float(t0),
+                gap = Fault(kind="nan_measurement", channel=channel, t_start_s=float(t0),
                             duration_s=dur)
                 sc = named_scenario(name, track=track, duration_s=float(t0) + 5.0, seed=0)
                 tr = simulate(sc.with_(faults=(gap,)))
@@ -78,8 +79,9 @@ def sweep(track: str) -> None:
             res = np.array(res)
             ok = res < 0.04
             worst = f"{100 * res[ok].max():.1f} cm" if ok.any() else "-"
-            print(f"{track} {name:10s} {dur:4.2f} s: within 4 cm {ok.sum():2d}/{res.size}, "
-                  f"median {100 * np.median(res):.1f} cm, worst within {worst}", flush=True)
+            print(f"{track} {channel} {name:10s} {dur:4.2f} s: within 4 cm "
+                  f"{ok.sum():2d}/{res.size}, median {100 * np.median(res):.1f} cm, "
+                  f"worst within {worst}", flush=True)
 
 
 def main() -> None:
@@ -88,9 +90,10 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=0, help="the 12 s gap over seeds 0..N-1")
     ap.add_argument("--sweep", action="store_true", help="gaps of 0.05-0.5 s at 29 starts")
     ap.add_argument("--track", default="Norisring", help="the track of --sweep")
+    ap.add_argument("--channel", default="y", help="the channel --sweep blanks (default y)")
     args = ap.parse_args()
     if args.sweep:
-        sweep(args.track)
+        sweep(args.track, args.channel)
         return
     print("gap [s] at [s]   paper            paper-imu")
     for t0 in (11.0, 12.0, 13.0):

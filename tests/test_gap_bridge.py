@@ -116,3 +116,16 @@ def test_the_yaw_damper_stays_live_through_a_gap_in_e_y():
             assert ctl.status.steer_held
     d = np.diff(steer)[400:]  # the steps from k = 401 on
     assert np.allclose(d, -k_r * 1e-4, rtol=1e-9, atol=0.0)
+
+
+@pytest.mark.parametrize("t0", [3.0, 10.8])
+def test_a_gap_in_the_speed_keeps_the_curvature_term_on_the_path(t0):
+    # `paper` on Norisring, vx NaN for 0.5 s: the curvature term and the yaw damper take the
+    # last finite speed with the path's current curvature; holding the term itself left it
+    # behind the corners' entries there, 5.2 and 9.5 cm (benchmarks/README.md "A gap in the
+    # speed"). Now 1.7 and 1.3 cm, the lap's own.
+    gap = Fault(kind="nan_measurement", channel="vx", t_start_s=t0, duration_s=0.5)
+    tr = simulate(named_scenario("paper", duration_s=t0 + 5.0, seed=0).with_(faults=(gap,)))
+    m = compute_metrics(tr)
+    assert m.status == "completed"
+    assert m.lateral_error_max_m < 0.02

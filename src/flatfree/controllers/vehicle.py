@@ -873,8 +873,9 @@ class VehicleControllerArrays:
         """Fresh controller states."""
         if self.coef.shape[0] > 13:
             self.coef[13] = 0.0  # the path correction's integrator
-        if self.kind == KIND.MFC_NATURAL and self.coef.shape[0] > _DAMP_DR:
+        if self.kind == KIND.MFC_NATURAL and self.coef.shape[0] > _VX_LAST:
             self.coef[_DAMP_DR] = 0.0  # no damper term in the start's steer
+            self.coef[_VX_LAST] = math.nan  # no speed measured yet
         if self.kind in (KIND.FLATNESS, KIND.MFC_FLAT):
             self.coef[_OUTER_SHIFT] = 0.0  # no correction held
             self.coef[_OUTER_HELD] = 0.0
@@ -973,7 +974,7 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                          math.exp(-dt / s.imu_filter_s), (2.0 * w_o + w_b) * dt,
                          (w_o * w_o + 2.0 * w_o * w_b) * dt,
                          0.0, 0.0, 0.0, 0.0, 0.0, w_o * w_o * w_b * dt, 0.0,
-                         s.steer_min_speed, float(s.curvature_term), 0.0, 0.0])
+                         s.steer_min_speed, float(s.curvature_term), 0.0, 0.0, math.nan])
     elif controller == "mfc-flat":
         s2: MfcFlatSettings = settings
         positive("mass", mass, "kg")
@@ -1007,8 +1008,9 @@ _STEER_MIN_V = 29  # MfcNaturalSettings.steer_min_speed [m/s]
 _OUTER_SHIFT, _OUTER_HELD, _FLAT_STEER_MIN_V = 14, 15, 16
 # MfcNaturalSettings.curvature_term: on; the term Vx^2 kappa / alpha [rad] of the period running
 _CURV_ON, _CURV_FF = 30, 31
-# mfc-natural: the yaw damper's input r - Vx kappa at its last term
-_DAMP_DR = 32
+# mfc-natural: the yaw damper's input r - Vx kappa at its last term; the last finite measured
+# speed [m/s] (NaN: none yet)
+_DAMP_DR, _VX_LAST = 32, 33
 _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
 _UMIN_I, _UMAX_I = int(IPAR.U_MIN), int(IPAR.U_MAX)
 _F_HAT_I = int(IST.F_HAT)
@@ -1206,8 +1208,17 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
     ff = ff_run
     u_min = p_lat[_UMIN_I]
     u_max = p_lat[_UMAX_I]
+    vx_lat = meas[3]  # the speed of the curvature term and the yaw damper
+    if kind == 2 and coef.shape[0] > _VX_LAST:
+        # a non-finite speed sample: the last finite one, with the path's current curvature
+        # (holding the term itself left it behind a corner's entry: 9.5 cm after 0.5 s at
+        # 10.8 s on Norisring, benchmarks/README.md "A gap in the speed")
+        if math.isfinite(vx_lat):
+            coef[_VX_LAST] = vx_lat
+        else:
+            vx_lat = coef[_VX_LAST]
     if curv:
-        ff_now = meas[3] * meas[3] * cref[8] / p_lat[_ALPHA]
+        ff_now = vx_lat * vx_lat * cref[8] / p_lat[_ALPHA]
         if math.isfinite(ff_now):
             ff = ff_now  # else the last finite term
         # the iPD's steer range, in its own input delta - ff (put back as it was, below)
@@ -1238,7 +1249,7 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         u_prev += ff_run  # the steer applied over the last period
     if coef[4] != 0.0:
         # parameter-free yaw damper (MfcNaturalSettings.yaw_damping): r - Vx kappa(s)
-        dr = meas[5] - meas[3] * cref[8]
+        dr = meas[5] - vx_lat * cref[8]
         if math.isfinite(dr):
             if coef[6] != 0.0:
                 dr = fir_update(f_yaw, dr)  # NOTES.md denoiser (2T - 3d)
@@ -1554,7 +1565,8 @@ class NaturalOutputController(_OwnLoopShell):
         steer applied last is held: at a standstill the steer does not move ``e_y`` and the
         iPD would wind the wheels to their lock (with the hold off, ``reset`` at the
         actuators' positions when the car pulls away; a NaN ``vx`` does not hold: the
-        lateral law does not need the speed). A car
+        lateral law does not need the speed, and the curvature term and the yaw damper take
+        the last finite one). A car
         started off its reference comes back at a bounded speed
         (:attr:`MfcNaturalSettings.correction_max`: from 3 m on the bundled presets at
         5-60 m/s, measured; unbounded, ``correction_max = inf``, the default gains leave the
