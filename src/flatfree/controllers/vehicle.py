@@ -1451,8 +1451,9 @@ class NaturalOutputStatus:
         The F of ``e_y'' = F + alpha delta`` [m/s^2] (0 until the window is full).
     steer_held : bool
         The last steer is not the law's: the window still filling (the start's steer held), a
-        non-finite ``e_y`` or lateral reference (the steer applied last held), or a speed
-        below ``steer_min_speed`` (the standstill hold).
+        non-finite ``e_y`` or lateral reference (the steer applied last held, moved by the
+        changes of the curvature term and of the yaw damper's term since), or a speed below
+        ``steer_min_speed`` (the standstill hold).
     """
 
     speed: IntelligentStatus
