@@ -153,9 +153,10 @@ def test_a_standing_car_keeps_its_steer():
         c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5)
     beyond = c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5, applied_steer=0.7)[1]
     assert beyond == act.max_steer == 0.6
-    # the step held for a NaN e_y too (the shell clips every steer it returns)
+    # a step held for a NaN e_y holds the last command (session 26; the steer applied last
+    # before), within the range: the standstill hold's, clipped, whatever is reported applied
     assert c.step(vx=20.0, r=0.0, e_y=math.nan, kappa=0.0, vx_ref=20.0,
-                  applied_steer=-0.7)[1] == -0.6
+                  applied_steer=-0.7)[1] == 0.6
     c.step(vx=0.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=0.5, applied_steer=0.02)
     assert c.step(vx=1.5, r=0.0, e_y=0.3, kappa=0.0, vx_ref=1.5)[1] != 0.02
     for bad in (-0.1, math.inf, math.nan):

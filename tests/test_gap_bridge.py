@@ -5,6 +5,9 @@ controller's window is (``intelligent._end_gap``; ``vehicle._denoised``, ``_brid
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 import pytest
 
@@ -129,3 +132,75 @@ def test_a_gap_in_the_speed_keeps_the_curvature_term_on_the_path(t0):
     m = compute_metrics(tr)
     assert m.status == "completed"
     assert m.lateral_error_max_m < 0.02
+
+
+def _natural(actuators=None, **changes):
+    settings = MfcNaturalSettings(**{**NATURAL_SETTINGS, "denoise_yaw": 0, **changes})
+    act = actuators or ActuatorParams.from_vehicle(load_vehicle("peugeot406"))
+    return NaturalOutputController(dt=0.001, actuators=act, settings=settings), settings
+
+
+@pytest.mark.parametrize("delay, tau", [(0.0, 0.0), (0.005, 0.0), (0.02, 0.0), (0.0, 0.02)])
+def test_a_held_steer_follows_the_curvature_term_whatever_the_actuators_lag(delay, tau):
+    # steady cornering, then e_y lost while the corner tightens (kappa and r = vx kappa ramp
+    # together: the damper's input stays 0): the held steer moves by the curvature term's
+    # change, vx^2 dkappa / alpha. It held the steer applied last, which lags the command
+    # behind a dead time or a lag: 0.17, 0.05 and 0.05 of the change (a user's audit)
+    act = dataclasses.replace(ActuatorParams.from_vehicle(load_vehicle("peugeot406")),
+                              steer_delay=delay, steer_tau=tau)
+    c, settings = _natural(act)
+    for _ in range(600):
+        steer0 = c.step(vx=20.0, r=0.2, e_y=0.0, kappa=0.01, vx_ref=20.0)[1]
+    for k in range(1, 201):
+        kap = 0.01 + 1e-5 * k
+        steer = c.step(vx=20.0, r=20.0 * kap, e_y=math.nan, kappa=kap, vx_ref=20.0)[1]
+    assert steer - steer0 == pytest.approx(400.0 * 2e-3 / settings.alpha_lat, rel=1e-9)
+
+
+def test_an_own_loops_nan_curvature_keeps_the_last_one():
+    # an own loop's projection of a lost pose gives a NaN kappa with the NaN e_y: the curvature
+    # term and the yaw damper take the last finite curvature (the damper stopped, the term
+    # froze); so the steer moves with r exactly as with the curvature passed
+    runs = []
+    for kap_gap in (0.01, math.nan):
+        c, settings = _natural()
+        for _ in range(600):
+            c.step(vx=20.0, r=0.2, e_y=0.0, kappa=0.01, vx_ref=20.0)
+        runs.append([c.step(vx=20.0, r=0.2 + 0.002 * k, e_y=math.nan, kappa=kap_gap,
+                            vx_ref=20.0)[1] for k in range(5)])
+    assert runs[0] == runs[1]
+    assert np.allclose(np.diff(runs[1]), -settings.yaw_damping * 0.002, rtol=1e-9, atol=0.0)
+
+
+def test_a_nan_yaw_rate_keeps_the_dampers_term():
+    # paper, noise-free, r NaN for one control step in a corner (4.2 s): the damper's last
+    # input is kept, so the command moves by 1e-4 rad at most against the clean run; its term
+    # fell out at once before, ~0.036 rad (2 deg) for that step (a user's audit)
+    sc = named_scenario("paper-noise-free", duration_s=6.0, seed=0).with_settings(
+        ["timing.log_dt_s=0.001"])
+    clean = simulate(sc)
+    tr = simulate(sc.with_(faults=(Fault(kind="nan_measurement", channel="r", t_start_s=4.2,
+                                         duration_s=0.001),)))
+    assert np.max(np.abs(tr["steer_cmd"] - clean["steer_cmd"])) < 2e-4
+
+
+def test_a_window_that_fills_during_a_gap_does_not_move_the_steer():
+    # e_y finite for 10 steps, then NaN while the window (185 samples) fills: the controller
+    # has no estimate yet, so its window repeats the last value and nothing moves the steer
+    # (the damper's first term came in against a missing one: a one-step spike of k_r dr)
+    c, _ = _natural()
+    c.reset(steer0=0.02)
+    steers = [c.step(vx=20.0, r=0.05, e_y=0.01 if k < 10 else math.nan, kappa=0.0,
+                     vx_ref=20.0)[1] for k in range(400)]
+    assert set(steers) == {0.02} and c.status.lateral.window_full and c.status.steer_held
+
+
+def test_a_nan_speed_at_a_standstill_keeps_the_standstill_hold():
+    # below steer_min_speed the steer is held; a NaN speed then goes by the last finite one
+    # (0 m/s): the hold stays and is said (the iPD wound the steer to its lock in 1.5 s)
+    c, _ = _natural()
+    c.reset(steer0=0.0)
+    for _ in range(400):
+        c.step(vx=0.0, r=0.0, e_y=0.1, kappa=0.0, vx_ref=0.0)
+    steers = [c.step(vx=math.nan, r=0.0, e_y=0.1, kappa=0.0, vx_ref=0.0)[1] for _ in range(2000)]
+    assert set(steers) == {0.0} and c.status.steer_held

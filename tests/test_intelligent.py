@@ -643,6 +643,18 @@ def test_a_gap_ends_with_the_window_it_would_have_had(nu, window, gap):
     assert worst_f < 5e-12 and worst_d < 5e-12  # measured <= 4.3e-13 and 1.7e-14
 
 
+def test_a_gap_while_the_window_fills_repeats_the_last_sample():
+    # a plant at rest (y = 0, F = -0.5 against u0 = 0.5): a gap from the 4th sample fills the
+    # window; with no F estimate yet its samples repeat the last one (the model's prediction
+    # took F_hat = 0 once the count reached the window: a ramp, and F_hat -0.387 at the first
+    # law step, a user's audit), so the first estimate is exact
+    c = IP(alpha=1.0, kp=2.0, dt=0.01, window=10, u0=0.5)
+    for k in range(60):
+        u = c.step(math.nan if 3 <= k < 33 else 0.0, 0.0)
+        if k >= 33:
+            assert c.status.f_hat == pytest.approx(-0.5, abs=1e-14) and u == pytest.approx(0.5)
+
+
 def _drive(c: IntelligentController, ys, refs) -> np.ndarray:
     return np.array([c.step(y, r, rd, rdd) for y, (r, rd, rdd) in zip(ys, refs, strict=True)])
 
@@ -1270,7 +1282,7 @@ def test_override_replaces_the_steps_output_against_the_previous_one():
     # the step moved the head by one, the override does not; the step's u slot (both copies)
     # holds v, the slot before it still u_prev, and nothing else in either ring changed
     L = int(p[IPAR.L])
-    hs = int(IST.GAP) + 1  # the header: the moments' blocks, then GAP
+    hs = int(IST.ESTIMATED) + 1  # the header: the moments' blocks, GAP, ESTIMATED
     ub, head = hs + 2 * L, int(s[IST.HEAD])
     assert head == (int(before[IST.HEAD]) - 1) % L and big[IST.HEAD] == head
     assert big[ub + head] == v and big[ub + head + L] == v

@@ -339,6 +339,22 @@ def test_fault_needs_its_fields():
         Fault(kind="steer_limit", t_start_s=0.0, duration_s=1.0)
 
 
+def test_a_scenarios_faults_must_be_faults():
+    # a string or a mapping in faults was accepted and failed in simulate with an
+    # AttributeError (a user's audit); a bare Fault was a TypeError
+    sc = Scenario()
+    gap = Fault(kind="nan_measurement", channel="y", t_start_s=0.1, duration_s=0.1)
+    with pytest.raises(ValueError, match=r"^faults\[0\] = 'x': expected a Fault"):
+        sc.with_(faults=("x",))
+    with pytest.raises(ValueError, match=r"^faults\[1\] = \{'kind': 'steer_limit'\}: expected"):
+        sc.with_(faults=(gap, {"kind": "steer_limit"}))
+    with pytest.raises(ValueError, match=r"^faults = Fault\(.*\): expected a sequence of Fault"):
+        sc.with_(faults=gap)
+    with pytest.raises(ValueError, match=r"^faults = 3: expected a sequence of Fault"):
+        sc.with_(faults=3)
+    assert sc.with_(faults=[gap]).faults == (gap,)
+
+
 def test_a_fault_refuses_a_key_of_the_other_kind(tmp_path):
     """``value = 3`` on a nan_measurement fault ran and was ignored: a key that does not
     apply to the fault's kind is refused, naming the key and the kind (in a file, the line)."""

@@ -103,7 +103,7 @@ import math
 import os
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -490,6 +490,14 @@ class Scenario:
                            MappingProxyType(dict(self.vehicle_overrides)))
         object.__setattr__(self, "controller_settings",
                            MappingProxyType(dict(self.controller_settings)))
+        if isinstance(self.faults, (Fault, str, bytes, Mapping)) or not isinstance(
+                self.faults, Iterable):
+            raise ValueError(f"faults = {self.faults!r}: expected a sequence of Fault "
+                             "(faults=(Fault(...),))")
+        for i, f in enumerate(self.faults):
+            if not isinstance(f, Fault):
+                raise ValueError(f"faults[{i}] = {f!r}: expected a Fault "
+                                 "(flatfree.scenario.Fault(kind=..., t_start_s=..., ...))")
         object.__setattr__(self, "faults", tuple(self.faults))
 
     def with_(self, **changes: Any) -> Scenario:

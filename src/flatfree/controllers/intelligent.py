@@ -209,9 +209,9 @@ _HP = len(IPAR)
 
 class IST(enum.IntEnum):
     """Header of the state array (:func:`make_state`; ``MY`` and ``MU`` start blocks of
-    ``MOMENT_DEGREE + 1`` entries, then ``GAP``: the header is 26 long); then two ring buffers
-    of ``2 L`` entries (measurements ``y`` and applied inputs ``u``, each sample written twice
-    so that the last ``L`` are contiguous, newest first)."""
+    ``MOMENT_DEGREE + 1`` entries, then ``GAP``, ``ESTIMATED``: the header is 27 long); then
+    two ring buffers of ``2 L`` entries (measurements ``y`` and applied inputs ``u``, each
+    sample written twice so that the last ``L`` are contiguous, newest first)."""
 
     K = 0  # samples stored in the window so far
     HEAD = 1  # ring position of the newest sample
@@ -231,6 +231,7 @@ class IST(enum.IntEnum):
     MY = 15  # moments of the y window, MOMENT_DEGREE + 1 entries (15-19)
     MU = 20  # moments of the u window (20-24)
     GAP = 25  # samples the window took from the model since the last finite y (a gap)
+    ESTIMATED = 26  # 1 once F_hat is an estimate (a full window at a finite y, or given)
 
 
 #: Degree of the polynomial weights the sliding-moment form represents (``f_estimator_weights``
@@ -242,16 +243,16 @@ _ND = MOMENT_DEGREE + 1
 MOMENT_BLOCK = _ND * _ND + 7 * _ND
 #: Smallest buffer length for which the moment form is used (below, the plain sums are as fast).
 MOMENT_MIN_LENGTH = 16
-_HS = int(IST.GAP) + 1  # the header's length (the moments take ND entries each, then GAP)
+_HS = int(IST.ESTIMATED) + 1  # the header's length (the moments take ND entries each)
 assert _ND == 5  # _slide_moments is written out for degree 4
 
 # plain ints for the compiled code (numba folds module-level ints into constants)
 _NU, _ALPHA, _KP, _KI, _KD, _DT = 0, 1, 2, 3, 4, 5
 _UMIN, _UMAX, _RATE, _U0, _AW, _L, _MOM, _REFRESH, _CMAX = 6, 7, 8, 9, 10, 11, 12, 13, 14
 _K, _HEAD, _NNF, _NF, _U, _INT, _FH, _E, _ED, _YD, _SAT, _RL, _YL = range(13)
-_MVALID, _MSINCE, _MY, _MU, _GAP = 13, 14, 15, 20, 25
+_MVALID, _MSINCE, _MY, _MU, _GAP, _EST = 13, 14, 15, 20, 25, 26
 assert [m.value for m in IPAR] == list(range(15)) and _HP == 15
-assert [m.value for m in IST] == [*range(13), 13, 14, 15, 20, 25] and _HS == 26
+assert [m.value for m in IST] == [*range(13), 13, 14, 15, 20, 25, 26] and _HS == 27
 # offsets inside the moment block: shift matrix, x_0^m, x_L^m (y), x_(L-1)^m (u), coefficients
 _MB_B, _MB_ADD, _MB_DY, _MB_DU = 0, _ND * _ND, _ND * _ND + _ND, _ND * _ND + 2 * _ND
 _MB_CY, _MB_CU, _MB_CDY, _MB_CDU = (_ND * _ND + 3 * _ND, _ND * _ND + 4 * _ND,
@@ -329,7 +330,7 @@ def intelligent_reset(p: np.ndarray, s: np.ndarray) -> None:
     p : ndarray
         Parameter array from :meth:`IntelligentParams.to_array`.
     s : ndarray
-        State array of length ``26 + 4 L`` (the IST header, then the rings; :func:`make_state`).
+        State array of length ``27 + 4 L`` (the IST header, then the rings; :func:`make_state`).
     """
     s[:] = 0.0
     u0 = min(max(p[_U0], p[_UMIN]), p[_UMAX])
@@ -386,8 +387,9 @@ def _predict(p, s, k, L):
     """The ultra-local model's prediction of the next sample over one zero-order-hold step,
     ``y' = F + alpha u`` (nu = 1) or ``y'' = F + alpha u`` (nu = 2), from the last sample, the
     window's estimates and the last output (NOTES.md ultra-local model); the last sample
-    itself while the window is not full (``k < L``: no estimate yet)."""
-    if k < L:
+    itself while there is no estimate yet (``k < L``, or a window that filled during a gap:
+    its F_hat was never estimated)."""
+    if k < L or s[_EST] == 0.0:
         return s[_YL]
     dt = p[_DT]
     acc = s[_FH] + p[_ALPHA] * s[_U]
@@ -628,7 +630,7 @@ def intelligent_step(
     else:
         # NOTES.md ultra-local model, one zero-order-hold step: y' = F + alpha u
         y_in = _predict(p, s, k, L)
-        if nu == 2 and k >= L:
+        if nu == 2 and k >= L and s[_EST] != 0.0:
             s[_YD] += dt * (s[_FH] + alpha * u_prev)  # the velocity moves on too
         s[_GAP] += 1.0
     head, y_old = _push_y(s, y_in, L)
@@ -655,6 +657,7 @@ def intelligent_step(
         mb = _HP + 4 * L
         my = s[_MY: _MY + _ND]
         mu = s[_MU: _MU + _ND]
+        s[_EST] = 1.0
         s[_FH] = _moment_sum(p[mb + _MB_CY: mb + _MB_CY + _ND], my) + alpha * _moment_sum(
             p[mb + _MB_CU: mb + _MB_CU + _ND], mu)
         if nu == 2:
@@ -692,6 +695,7 @@ def intelligent_step(
                 du += wdu[i] * ui
             s[_YD] = dy + alpha * du
         s[_FH] = ay + alpha * au
+        s[_EST] = 1.0
     if full and y_ok and ref_ok:
         e = y - y_ref
         e_dot = s[_YD] - y_ref_dot if nu == 2 else 0.0
@@ -745,6 +749,7 @@ def intelligent_step_external(p, s, y, y_ref, y_ref_dot, y_ref_ddot, f_hat, y_ha
     e = y_hat - y_ref
     u = _law(p, s, f_hat, e, y_dot_hat - y_ref_dot, y_ref_dot, y_ref_ddot, u_prev, e * p[_DT])
     s[_FH] = f_hat
+    s[_EST] = 1.0
     s[_YD] = y_dot_hat
     intelligent_set_applied(p, s, u)  # the output into the u ring (finite, window full)
     return u
@@ -771,6 +776,7 @@ def intelligent_override(p, s, y, y_ref, y_ref_dot, y_ref_ddot, f_hat, y_hat, y_
     e = y_hat - y_ref
     u = _law(p, s, f_hat, e, y_dot_hat - y_ref_dot, y_ref_dot, y_ref_ddot, u_prev, 0.0)
     s[_FH] = f_hat
+    s[_EST] = 1.0
     intelligent_set_applied(p, s, u)  # replaces the step's output in the u ring
     return u
 

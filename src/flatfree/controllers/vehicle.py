@@ -873,9 +873,9 @@ class VehicleControllerArrays:
         """Fresh controller states."""
         if self.coef.shape[0] > 13:
             self.coef[13] = 0.0  # the path correction's integrator
-        if self.kind == KIND.MFC_NATURAL and self.coef.shape[0] > _VX_LAST:
-            self.coef[_DAMP_DR] = 0.0  # no damper term in the start's steer
-            self.coef[_VX_LAST] = math.nan  # no speed measured yet
+        if self.kind == KIND.MFC_NATURAL and self.coef.shape[0] > _CMD_LAST:
+            # no damper term, speed, curvature or command yet
+            self.coef[_DAMP_DR: _CMD_LAST + 1] = math.nan
         if self.kind in (KIND.FLATNESS, KIND.MFC_FLAT):
             self.coef[_OUTER_SHIFT] = 0.0  # no correction held
             self.coef[_OUTER_HELD] = 0.0
@@ -974,7 +974,8 @@ def build_mfc(controller: str, settings, *, dt: float, actuators: ActuatorParams
                          math.exp(-dt / s.imu_filter_s), (2.0 * w_o + w_b) * dt,
                          (w_o * w_o + 2.0 * w_o * w_b) * dt,
                          0.0, 0.0, 0.0, 0.0, 0.0, w_o * w_o * w_b * dt, 0.0,
-                         s.steer_min_speed, float(s.curvature_term), 0.0, 0.0, math.nan])
+                         s.steer_min_speed, float(s.curvature_term), 0.0, math.nan,
+                         math.nan, math.nan, math.nan])
     elif controller == "mfc-flat":
         s2: MfcFlatSettings = settings
         positive("mass", mass, "kg")
@@ -1008,9 +1009,9 @@ _STEER_MIN_V = 29  # MfcNaturalSettings.steer_min_speed [m/s]
 _OUTER_SHIFT, _OUTER_HELD, _FLAT_STEER_MIN_V = 14, 15, 16
 # MfcNaturalSettings.curvature_term: on; the term Vx^2 kappa / alpha [rad] of the period running
 _CURV_ON, _CURV_FF = 30, 31
-# mfc-natural: the yaw damper's input r - Vx kappa at its last term; the last finite measured
-# speed [m/s] (NaN: none yet)
-_DAMP_DR, _VX_LAST = 32, 33
+# mfc-natural: the yaw damper's input r - Vx kappa at its last term [rad/s]; the last finite
+# measured speed [m/s] and path curvature [1/m]; the last steer command [rad] (NaN: none yet)
+_DAMP_DR, _VX_LAST, _KAP_LAST, _CMD_LAST = 32, 33, 34, 35
 _ALPHA, _DT_I, _L_I = int(IPAR.ALPHA), int(IPAR.DT), int(IPAR.L)
 _UMIN_I, _UMAX_I = int(IPAR.U_MIN), int(IPAR.U_MAX)
 _F_HAT_I = int(IST.F_HAT)
@@ -1208,17 +1209,24 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
     ff = ff_run
     u_min = p_lat[_UMIN_I]
     u_max = p_lat[_UMAX_I]
-    vx_lat = meas[3]  # the speed of the curvature term and the yaw damper
-    if kind == 2 and coef.shape[0] > _VX_LAST:
+    vx_lat = meas[3]  # the speed and curvature of the curvature term and the yaw damper
+    kap = cref[8]
+    nat = kind == 2 and coef.shape[0] > _CMD_LAST
+    if nat:
         # a non-finite speed sample: the last finite one, with the path's current curvature
         # (holding the term itself left it behind a corner's entry: 9.5 cm after 0.5 s at
-        # 10.8 s on Norisring, benchmarks/README.md "A gap in the speed")
+        # 10.8 s on Norisring, benchmarks/README.md "A gap in the speed"); a non-finite
+        # curvature (an own loop's projection of a lost pose): the last finite one
         if math.isfinite(vx_lat):
             coef[_VX_LAST] = vx_lat
         else:
             vx_lat = coef[_VX_LAST]
+        if math.isfinite(kap):
+            coef[_KAP_LAST] = kap
+        else:
+            kap = coef[_KAP_LAST]
     if curv:
-        ff_now = vx_lat * vx_lat * cref[8] / p_lat[_ALPHA]
+        ff_now = vx_lat * vx_lat * kap / p_lat[_ALPHA]
         if math.isfinite(ff_now):
             ff = ff_now  # else the last finite term
         # the iPD's steer range, in its own input delta - ff (put back as it was, below)
@@ -1247,12 +1255,21 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # has stored no input yet, its held output is the start's steer itself)
         coef[_CURV_FF] = ff if s_lat[_K_I] > 0.0 else 0.0
         u_prev += ff_run  # the steer applied over the last period
+    d_damp = 0.0  # the damper's change on a held step
     if coef[4] != 0.0:
         # parameter-free yaw damper (MfcNaturalSettings.yaw_damping): r - Vx kappa(s)
-        dr = meas[5] - vx_lat * cref[8]
-        if math.isfinite(dr):
+        dr = meas[5] - vx_lat * kap
+        have = math.isfinite(dr)
+        if have and coef[6] != 0.0:
+            dr = fir_update(f_yaw, dr)  # NOTES.md denoiser (2T - 3d)
+        elif not have and nat and math.isfinite(coef[_DAMP_DR]):
+            # a non-finite yaw rate: the damper's last input kept (its term fell out of the
+            # steer at once, ~2 deg, and came back after the gap); its denoiser takes it too
+            dr = coef[_DAMP_DR]
+            have = True
             if coef[6] != 0.0:
-                dr = fir_update(f_yaw, dr)  # NOTES.md denoiser (2T - 3d)
+                fir_update(f_yaw, dr)
+        if have:
             # on the iPD's law only, when it is fed the applied steer: a step that holds
             # (window not full, a non-finite input) then returns the steer applied last, the
             # last damper term in it; adding the term again at every held step integrated it
@@ -1264,23 +1281,30 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
                     delta = p_lat[_UMIN_I]
                 elif delta > p_lat[_UMAX_I]:
                     delta = p_lat[_UMAX_I]
-                if kind == 2 and coef.shape[0] > _DAMP_DR:
+                if nat:
                     coef[_DAMP_DR] = dr
-            elif kind == 2 and coef.shape[0] > _DAMP_DR and s_lat[_K_I] >= p_lat[_L_I]:
+            elif nat and math.isfinite(coef[_DAMP_DR]):
                 # a step held on a non-finite input (a gap in the position): the damper stays
                 # live on the change of its input since its last term, which the held steer
                 # holds; the yaw rate is still measured, and without it the car drifted off
                 # the line on a corner's entry (benchmarks/README.md "The yaw damper through
                 # a gap in the position")
-                delta -= coef[4] * (dr - coef[_DAMP_DR])
-                if delta < p_lat[_UMIN_I]:
-                    delta = p_lat[_UMIN_I]
-                elif delta > p_lat[_UMAX_I]:
-                    delta = p_lat[_UMAX_I]
+                d_damp = -coef[4] * (dr - coef[_DAMP_DR])
+                delta += d_damp
                 coef[_DAMP_DR] = dr
-    if kind == 2 and coef.shape[0] > _STEER_MIN_V and meas[3] < coef[_STEER_MIN_V]:
+    if (nat and coef[5] != 0.0 and s_lat[_K_I] >= p_lat[_L_I]
+            and not intelligent_law_ran(p_lat, s_lat) and math.isfinite(coef[_CMD_LAST])):
+        # a step held on a non-finite input (a gap in the position): the steer held is the
+        # last command, not the steer applied last, with the changes of the curvature term
+        # and of the damper's term since (above): where the actuators lag the command (dead
+        # time, a lag, the rate limit) the applied steer dropped most of those changes
+        delta = coef[_CMD_LAST] + d_damp + (ff - ff_run if curv else 0.0)
+    if nat and (delta < p_lat[_UMIN_I] or delta > p_lat[_UMAX_I]):
+        delta = min(max(delta, p_lat[_UMIN_I]), p_lat[_UMAX_I])
+    if kind == 2 and coef.shape[0] > _STEER_MIN_V and vx_lat < coef[_STEER_MIN_V]:
         # too slow for the steer to move e_y (MfcNaturalSettings.steer_min_speed): hold the
-        # steer applied last; the estimators are told so (their window keeps its time base)
+        # steer applied last; the estimators are told so (their window keeps its time base);
+        # a non-finite speed sample: the last finite one decides
         delta = u_prev
         intelligent_set_applied(p_lat, s_lat, delta - ff)
     elif kind == 1 and meas[3] < coef[_FLAT_STEER_MIN_V]:
@@ -1288,6 +1312,8 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # correction's d y2 / d r changes sign below the singular speed): hold it
         delta = u_prev
         intelligent_set_applied(p_lat, s_lat, delta)
+    if nat:
+        coef[_CMD_LAST] = min(max(delta, p_lat[_UMIN_I]), p_lat[_UMAX_I])
     return tw, delta
 
 
@@ -1451,9 +1477,9 @@ class NaturalOutputStatus:
         The F of ``e_y'' = F + alpha delta`` [m/s^2] (0 until the window is full).
     steer_held : bool
         The last steer is not the law's: the window still filling (the start's steer held), a
-        non-finite ``e_y`` or lateral reference (the steer applied last held, moved by the
+        non-finite ``e_y`` or lateral reference (the last command held, moved by the
         changes of the curvature term and of the yaw damper's term since), or a speed below
-        ``steer_min_speed`` (the standstill hold).
+        ``steer_min_speed`` (the standstill hold; a NaN speed: the last finite one).
     """
 
     speed: IntelligentStatus
@@ -1550,13 +1576,13 @@ class NaturalOutputController(_OwnLoopShell):
         A bumpless start: until its estimator's window is full (the first ``window_lon - 1``
         and ``window_lat - 1`` steps, 0.1 s at the default settings) each loop gives its
         start value, the :meth:`reset`'s ``torque0`` and ``steer0``. A step whose ``e_y`` (or
-        lateral reference) is not finite holds the steer applied last, the yaw damper's term
+        lateral reference) is not finite holds the last steer command, the yaw damper's term
         in it (the damper acts with the iPD's law; once the window is full, a held step
         follows the change of the damper's term since its last one, the yaw rate being still
         measured; with ``feed_applied = False`` the iPD holds its own output and the damper is
         added at every step, the warm-up's included; with ``curvature_term`` the held steer
-        follows the change of the term ``vx^2 kappa / alpha`` since); the steer returned is
-        within ``actuators.max_steer``. The iPD's window and denoiser bridge the gap with the
+        follows the change of the term ``vx^2 kappa / alpha`` since; a NaN ``kappa`` is the
+        last finite one); the steer returned is within ``actuators.max_steer``. The iPD's window and denoiser bridge the gap with the
         ultra-local model's predictions (:mod:`flatfree.controllers.intelligent`).
 
         Conventions (ISO 8855, as the whole library): body axes at the CoG, x forward, y
@@ -1654,7 +1680,9 @@ class NaturalOutputController(_OwnLoopShell):
         """The loops' counters, flags and estimates after the last step
         (:class:`NaturalOutputStatus`)."""
         z = self._arrays
-        below = self._vx_prev < self._settings.steer_min_speed  # (False before a step: NaN)
+        # the speed the standstill hold went by: the last finite one (False before: NaN)
+        vx = self._vx_prev if math.isfinite(self._vx_prev) else float(z.coef[_VX_LAST])
+        below = vx < self._settings.steer_min_speed
         return NaturalOutputStatus(
             speed=intelligent_status(z.p_lon, z.s_lon),
             lateral=intelligent_status(z.p_lat, z.s_lat),
