@@ -1582,8 +1582,9 @@ class NaturalOutputController(_OwnLoopShell):
         measured; with ``feed_applied = False`` the iPD holds its own output and the damper is
         added at every step, the warm-up's included; with ``curvature_term`` the held steer
         follows the change of the term ``vx^2 kappa / alpha`` since; a NaN ``kappa`` is the
-        last finite one); the steer returned is within ``actuators.max_steer``. The iPD's window and denoiser bridge the gap with the
-        ultra-local model's predictions (:mod:`flatfree.controllers.intelligent`).
+        last finite one); the steer returned is within ``actuators.max_steer``. The iPD's
+        window and denoiser bridge the gap with the ultra-local model's predictions
+        (:mod:`flatfree.controllers.intelligent`).
 
         Conventions (ISO 8855, as the whole library): body axes at the CoG, x forward, y
         left, z up; the yaw rate, the steer and the curvature are positive to the left
