@@ -184,10 +184,10 @@ def test_imu_survives_a_blanked_channel(channel):
     y blanked; during the blank the algebraic fallback predicts e_y with the observer's e_y',
     which the iPD's window state holds since intelligent_step_external. The y case read
     1.4 mm before the gap's end was bridged (2.8 mm after it) and the yaw damper kept live
-    through the hold (5.0 mm): the clean run takes 1 deg of steer off within the 50 ms, which
-    a held steer cannot; over 29 gaps of 50 ms along Norisring the same code deviates from
-    the clean run by 1.0 mm at the median, 3.7 mm at most, benchmarks/README.md "The yaw
-    damper through a gap in the position")."""
+    through the hold (5.0 mm): in `paper`'s trace there the clean run takes 1 deg of steer off
+    within the 50 ms, which a held steer cannot; over 29 gaps of 50 ms along Norisring the
+    same code deviates from the clean run by 0.9 mm at the median, 3.6 mm at most,
+    benchmarks/README.md "A user's audit of the gap handling")."""
     clean = simulate(named_scenario("paper-imu", duration_s=8.0))
     sc = named_scenario("paper-imu", duration_s=8.0).with_(
         faults=(Fault(kind="nan_measurement", channel=channel, t_start_s=4.5,

@@ -353,6 +353,7 @@ def test_a_scenarios_faults_must_be_faults():
     with pytest.raises(ValueError, match=r"^faults = 3: expected a sequence of Fault"):
         sc.with_(faults=3)
     assert sc.with_(faults=[gap]).faults == (gap,)
+    assert sc.with_(faults=(f for f in [gap])).faults == (gap,)  # an iterator, read once
 
 
 def test_a_fault_refuses_a_key_of_the_other_kind(tmp_path):

@@ -200,11 +200,11 @@ def test_a_measurement_that_goes_nan_for_50_ms_is_survived(channel):
 @pytest.mark.parametrize(("name", "bound_m"), [("paper", 0.02), ("paper-imu", 0.01)])
 def test_a_0_1_s_gap_in_the_position_costs_centimetres_not_the_car(name, bound_m):
     """Norisring's paper scenario, the position NaN for 0.1 s from 12 s, in a corner: the run
-    completes within the lateral target, its healthy accuracy (seeds 0-9 since the gap's end
-    is bridged and the yaw damper stays live through the hold, session 26: 1.28-2.39 cm and
-    0.64-0.68 cm; at 1ed7df4 1.28-3.65 cm and 0.65-0.76 cm, when this bound was 3 cm; seed 0,
-    run here, 1.30 cm and 0.67 cm). It left the track at ~15 s (seed 0; both designs) while
-    the held steer integrated the yaw damper's term (session 14, vehicle_step)."""
+    completes within the lateral target, seed 0 run here: 1.30 cm and 0.67 cm (seeds 0-9 with
+    session 26's gap handling: 1.30-2.56 cm, 2 of 10 above 2 cm, and 0.64-0.68 cm; at 1ed7df4
+    1.28-3.65 cm and 0.65-0.76 cm, when this bound was 3 cm). It left the track at ~15 s
+    (seed 0; both designs) while the held steer integrated the yaw damper's term (session 14,
+    vehicle_step)."""
     from flatfree.scenarios import named_scenario
 
     sc = named_scenario(name, duration_s=16.0)

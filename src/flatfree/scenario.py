@@ -494,11 +494,11 @@ class Scenario:
                 self.faults, Iterable):
             raise ValueError(f"faults = {self.faults!r}: expected a sequence of Fault "
                              "(faults=(Fault(...),))")
+        object.__setattr__(self, "faults", tuple(self.faults))  # once: an iterator too
         for i, f in enumerate(self.faults):
             if not isinstance(f, Fault):
                 raise ValueError(f"faults[{i}] = {f!r}: expected a Fault "
                                  "(flatfree.scenario.Fault(kind=..., t_start_s=..., ...))")
-        object.__setattr__(self, "faults", tuple(self.faults))
 
     def with_(self, **changes: Any) -> Scenario:
         """A copy with top-level fields replaced (validated)."""

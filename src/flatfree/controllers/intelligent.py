@@ -383,13 +383,13 @@ def _push_y(s, y_in, L):
 
 
 @numba.njit(**_JIT_INLINE)
-def _predict(p, s, k, L):
+def _predict(p, s):
     """The ultra-local model's prediction of the next sample over one zero-order-hold step,
     ``y' = F + alpha u`` (nu = 1) or ``y'' = F + alpha u`` (nu = 2), from the last sample, the
     window's estimates and the last output (NOTES.md ultra-local model); the last sample
-    itself while there is no estimate yet (``k < L``, or a window that filled during a gap:
-    its F_hat was never estimated)."""
-    if k < L or s[_EST] == 0.0:
+    itself while there is no estimate yet (``ESTIMATED`` 0: the window not full, or full only
+    with samples of a gap, its F_hat never estimated; once set the window stays full)."""
+    if s[_EST] == 0.0:
         return s[_YL]
     dt = p[_DT]
     acc = s[_FH] + p[_ALPHA] * s[_U]
@@ -410,7 +410,7 @@ def gap_weight(i: int, m: int, nu: int) -> float:
 def intelligent_predict(p: np.ndarray, s: np.ndarray) -> float:
     """The model's prediction of the next sample, the one a non-finite ``y`` would store
     (:func:`intelligent_step`)."""
-    return _predict(p, s, int(s[_K]), int(p[_L]))
+    return _predict(p, s)
 
 
 @numba.njit(**_JIT_STEP)
@@ -432,7 +432,7 @@ def _end_gap(p, s, y, L):
         return
     s[_GAP] = 0.0
     s[_MVALID] = 0.0
-    d = y - _predict(p, s, int(s[_K]), L)
+    d = y - _predict(p, s)
     if not math.isfinite(d):
         return
     nu = int(p[_NU])
@@ -629,8 +629,8 @@ def intelligent_step(
             _end_gap(p, s, y, L)  # the gap's predicted samples moved toward y
     else:
         # NOTES.md ultra-local model, one zero-order-hold step: y' = F + alpha u
-        y_in = _predict(p, s, k, L)
-        if nu == 2 and k >= L and s[_EST] != 0.0:
+        y_in = _predict(p, s)
+        if nu == 2 and s[_EST] != 0.0:
             s[_YD] += dt * (s[_FH] + alpha * u_prev)  # the velocity moves on too
         s[_GAP] += 1.0
     head, y_old = _push_y(s, y_in, L)

@@ -1289,8 +1289,8 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
                 # holds; the yaw rate is still measured, and without it the car drifted off
                 # the line on a corner's entry (benchmarks/README.md "The yaw damper through
                 # a gap in the position")
+                # (the held step's steer is formed below, from the last command)
                 d_damp = -coef[4] * (dr - coef[_DAMP_DR])
-                delta += d_damp
                 coef[_DAMP_DR] = dr
     if (nat and coef[5] != 0.0 and s_lat[_K_I] >= p_lat[_L_I]
             and not intelligent_law_ran(p_lat, s_lat) and math.isfinite(coef[_CMD_LAST])):
@@ -1298,9 +1298,8 @@ def vehicle_step(kind, p_lon, s_lon, p_lat, s_lat, coef, f_lon, f_lat, f_yaw, me
         # last command, not the steer applied last, with the changes of the curvature term
         # and of the damper's term since (above): where the actuators lag the command (dead
         # time, a lag, the rate limit) the applied steer dropped most of those changes
-        delta = coef[_CMD_LAST] + d_damp + (ff - ff_run if curv else 0.0)
-    if nat and (delta < p_lat[_UMIN_I] or delta > p_lat[_UMAX_I]):
-        delta = min(max(delta, p_lat[_UMIN_I]), p_lat[_UMAX_I])
+        delta = min(max(coef[_CMD_LAST] + d_damp + (ff - ff_run if curv else 0.0),
+                        p_lat[_UMIN_I]), p_lat[_UMAX_I])
     if kind == 2 and coef.shape[0] > _STEER_MIN_V and vx_lat < coef[_STEER_MIN_V]:
         # too slow for the steer to move e_y (MfcNaturalSettings.steer_min_speed): hold the
         # steer applied last; the estimators are told so (their window keeps its time base);
